@@ -9,6 +9,8 @@ Library entry points (interfaces.md section 5):
 
 from navstack.jpl import jpl_serpentine
 from navstack.kinematics import Chain
+from navstack.trial import TrialResult, run_trial
+from navstack.world import World, WorldError, load_world
 
-__all__ = ["Chain", "jpl_serpentine"]
+__all__ = ["Chain", "TrialResult", "World", "WorldError", "jpl_serpentine", "load_world", "run_trial"]
 __version__ = "0.1.0"

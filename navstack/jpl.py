@@ -37,9 +37,7 @@ ALPHA = np.array(
     + [0.0]  # row 21, tool frame: alpha_20 = 0 (interfaces.md section 1)
 )
 # a_{i-1} [cm]
-A_CM = np.array(
-    [0, 0, 12.32, 10.79, 7.94, 7.94, 4.92, 4.92, 0, 0] + [20.0, 0] * 5 + [20.0]
-)
+A_CM = np.array([0, 0, 12.32, 10.79, 7.94, 7.94, 4.92, 4.92, 0, 0] + [20.0, 0] * 5 + [20.0])
 # d_i [cm]
 D_CM = np.array([0, 0, 0, 54.6, 0, 54.6, 0, 20.0, 0, 0] + [0] * 11)
 # theta_i offset [rad] (a blank theta_2 is 0)

@@ -145,9 +145,15 @@ class Chain:
         if len(self.prismatic) > rows:
             raise ValueError("more joints than DH rows")
         cast = {
-            "alpha": np.float64, "a": np.float64, "d": np.float64, "theta": np.float64,
-            "prismatic": np.bool_, "lower": np.float64, "upper": np.float64,
-            "q_default": np.float64, "point_frames": np.int64,
+            "alpha": np.float64,
+            "a": np.float64,
+            "d": np.float64,
+            "theta": np.float64,
+            "prismatic": np.bool_,
+            "lower": np.float64,
+            "upper": np.float64,
+            "q_default": np.float64,
+            "point_frames": np.int64,
         }
         for key, dtype in cast.items():
             arr = np.ascontiguousarray(getattr(self, key), dtype=dtype)

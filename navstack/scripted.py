@@ -1,0 +1,114 @@
+"""Scripted tip path: a smooth curve through the goals, no sensing (the baseline).
+
+The curve is a cubic spline through the start tip position and every goal,
+parameterised by chord length, leaving the start along the tip's current
+heading (clamped first derivative) so the serpentine need not kink on the
+first step.  It is resampled by arc length and traversed with a trapezoidal
+speed profile (``speed`` [m/s], ``accel`` [m/s^2]).  The smallest radius of
+curvature is reported (``min_turn_radius``); worlds for the scripted planner
+should keep it above about 0.25 m so the serpentine joints stay near 40 deg.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.interpolate import CubicSpline
+
+from navstack.planner import TipCommand
+
+
+@dataclass(frozen=True)
+class ScriptedConfig:
+    """Speed profile of the scripted tip path."""
+
+    speed: float = 0.06
+    """Cruise speed of the tip [m/s]."""
+    accel: float = 0.05
+    """Acceleration and deceleration [m/s^2]."""
+    sample: float = 0.002
+    """Arc-length resolution of the resampled curve [m]."""
+
+    def __post_init__(self) -> None:
+        for name in ("speed", "accel", "sample"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
+                raise ValueError(f"ScriptedConfig.{name} must be a positive number, got {v!r}")
+
+
+class ScriptedPlanner:
+    """Follows a precomputed spline through ``goals``; ignores sensor readings."""
+
+    def __init__(
+        self,
+        start: ArrayLike,
+        heading: ArrayLike,
+        goals: ArrayLike,
+        config: ScriptedConfig | None = None,
+    ) -> None:
+        self.config = config or ScriptedConfig()
+        start = np.asarray(start, dtype=np.float64)
+        heading = np.asarray(heading, dtype=np.float64)
+        goals = np.atleast_2d(np.asarray(goals, dtype=np.float64))
+        if start.shape != (3,) or heading.shape != (3,) or goals.shape[1:] != (3,) or len(goals) == 0:
+            raise ValueError("ScriptedPlanner needs a start (3,), a heading (3,) and goals (k, 3)")
+        if not (np.isfinite(start).all() and np.isfinite(heading).all() and np.isfinite(goals).all()):
+            raise ValueError("ScriptedPlanner: start, heading and goals must be finite")
+        pts = [start]
+        for g in goals:  # drop goals that coincide with the previous point
+            if np.linalg.norm(g - pts[-1]) > 1e-6:
+                pts.append(g)
+        if len(pts) < 2:
+            pts.append(start + 1e-3 * heading / max(np.linalg.norm(heading), 1e-12))
+        pts = np.array(pts)
+        u = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+        h = heading / np.linalg.norm(heading)
+        spline = CubicSpline(u, pts, bc_type=((1, h), (2, np.zeros(3))))
+        # dense samples -> cumulative arc length
+        n = max(int(np.ceil(u[-1] / (self.config.sample / 4))), 8)
+        uu = np.linspace(0.0, u[-1], n + 1)
+        xyz = spline(uu)
+        s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(xyz, axis=0), axis=1))])
+        self._s = s
+        self._xyz = xyz
+        self.length = float(s[-1])
+        d1 = spline(uu, 1)
+        d2 = spline(uu, 2)
+        speed = np.linalg.norm(d1, axis=1)
+        curv = np.linalg.norm(np.cross(d1, d2), axis=1) / np.maximum(speed**3, 1e-12)
+        self.min_turn_radius = float(1.0 / max(curv.max(), 1e-12))
+        self._arc = 0.0
+        self._v = 0.0
+        self.done = False
+
+    def _point(self, s: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        s = min(max(s, 0.0), self.length)
+        i = int(np.clip(np.searchsorted(self._s, s) - 1, 0, len(self._s) - 2))
+        ds = self._s[i + 1] - self._s[i]
+        f = 0.0 if ds <= 0 else (s - self._s[i]) / ds
+        p = self._xyz[i] + f * (self._xyz[i + 1] - self._xyz[i])
+        t = (self._xyz[i + 1] - self._xyz[i]) / max(ds, 1e-12)
+        return p, t
+
+    def step(
+        self,
+        dt: float,
+        tip_position: ArrayLike | None = None,
+        tip_direction: ArrayLike | None = None,
+        reading: object | None = None,
+        goal: ArrayLike | None = None,
+        goal_tolerance: float | None = None,
+    ) -> TipCommand:
+        """Advance along the curve by one period ``dt`` [s]; the other arguments are ignored."""
+        cfg = self.config
+        remaining = self.length - self._arc
+        v_stop = np.sqrt(max(2.0 * cfg.accel * remaining, 0.0))
+        self._v = min(cfg.speed, self._v + cfg.accel * dt, v_stop)
+        self._arc = min(self.length, self._arc + self._v * dt)
+        if self._arc >= self.length - 1e-9:
+            self._v = 0.0
+            self.done = True
+        p, t = self._point(self._arc)
+        return TipCommand(position=p, velocity=t * self._v, stalled=False)

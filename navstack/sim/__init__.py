@@ -1,0 +1,1 @@
+"""PyBullet adapters: robot body, joint servo, obstacle scene, ray sensor. Nothing else imports pybullet."""

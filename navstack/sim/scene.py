@@ -1,0 +1,265 @@
+"""The obstacles of a :class:`~navstack.world.World` as static PyBullet bodies, and clearance queries.
+
+Obstacles are known to the simulator only: this module is the one place that turns obstacle geometry
+into simulator bodies.  The planner and controller must never import it or read ``world.obstacles``.
+
+Geometry (metres, radians):
+
+* cylinder: ``GEOM_CYLINDER`` (flat-ended, local z axis) centred at the midpoint of ``p0``-``p1`` and
+  rotated so that its z axis runs from ``p0`` to ``p1``;
+* box: ``GEOM_BOX`` with the world's ``rpy`` (roll X, pitch Y, yaw Z of the world, in that order);
+* sphere: ``GEOM_SPHERE``;
+* mesh: loaded with trimesh, vertices multiplied by ``scale``, and given to PyBullet as vertices + indices,
+  which PyBullet turns into a static concave triangle mesh (``btBvhTriangleMeshShape``).
+
+Performance choice (measured on a 40-cylinder truss with a 9-capsule chain inside it, pybullet 3.2.7,
+median of 9 x 50 queries): the primitives are packed into compound bodies of at most 16 children
+(``createCollisionShapeArray``; PyBullet keeps at most 16, so the packing is chunked: 40 cylinders make
+3 bodies).  A clearance query took 31-35 us that way against 250-490 us with one body per cylinder
+(8-16x faster).  :meth:`Scene.clearance` also asks with small thresholds first (0.05, 0.15, 0.4 m, then
+``max_distance``): this is exact, because the first threshold that reports any point bounds the minimum,
+and 13-15x cheaper than one ``max_distance=1`` pass (about 460 us), since PyBullet returns one Python
+tuple per shape pair within the threshold.  ``SceneOptions(combine_primitives=False)`` builds one body
+per obstacle for comparison.
+
+PyBullet limitations found (pybullet 3.2.7):
+
+* a triangle mesh is a surface: a robot part entirely *inside* a closed mesh reports the (positive)
+  distance to the nearest triangle, not a penetration;
+* ``createCollisionShapeArray`` keeps at most 16 children and silently drops the rest, and
+  ``createVisualShapeArray`` with more than 16 crashed the process, hence the chunking;
+* collision shapes ask for a cylinder's ``height``, visual shapes for its ``length``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pybullet as p
+from scipy.spatial.transform import Rotation
+
+from navstack.world import Box, Cylinder, Mesh, Obstacle, Sphere, World, WorldError
+
+MAX_COMPOUND_CHILDREN = 16
+"""PyBullet keeps at most this many shapes in one ``createCollisionShapeArray`` / visual array."""
+
+CLEARANCE_STAGES = (0.05, 0.15, 0.4)
+"""Thresholds (m) tried before ``max_distance`` in :meth:`Scene.clearance` (an exact speed-up)."""
+
+
+@dataclass(frozen=True)
+class SceneOptions:
+    """How obstacles become bodies.
+
+    Attributes:
+        combine_primitives: pack cylinders/boxes/spheres into compound bodies (faster queries); False
+            makes one body per obstacle (for comparison and debugging).
+        primitive_rgba: colour of cylinders, boxes and spheres (grey-blue) in rendered pictures.
+        mesh_rgba: colour of meshes.
+    """
+
+    combine_primitives: bool = True
+    primitive_rgba: tuple[float, float, float, float] = (0.55, 0.62, 0.75, 1.0)
+    mesh_rgba: tuple[float, float, float, float] = (0.45, 0.5, 0.6, 1.0)
+
+
+def _quat_xyzw_from_rpy(rpy: np.ndarray) -> list[float]:
+    """PyBullet quaternion (x, y, z, w) of roll X, pitch Y, yaw Z about the world axes, in that order."""
+    return Rotation.from_euler("xyz", rpy).as_quat().tolist()
+
+
+def _quat_z_to(direction: np.ndarray) -> list[float]:
+    """Quaternion (x, y, z, w) of the shortest rotation taking +z onto ``direction`` (any length > 0)."""
+    d = direction / np.linalg.norm(direction)
+    z = np.array([0.0, 0.0, 1.0])
+    axis = np.cross(z, d)
+    s = float(np.linalg.norm(axis))
+    c = float(d[2])
+    if s < 1e-12:
+        return [0.0, 0.0, 0.0, 1.0] if c > 0 else [1.0, 0.0, 0.0, 0.0]
+    return Rotation.from_rotvec(axis / s * math.atan2(s, c)).as_quat().tolist()
+
+
+@dataclass
+class _Primitive:
+    """One primitive in the form both PyBullet shape calls want (frame pose in the world)."""
+
+    shape: int
+    radius: float
+    half_extents: list[float]
+    length: float
+    position: list[float]
+    orientation: list[float]
+
+
+def _primitive(o: Obstacle) -> _Primitive:
+    if isinstance(o, Cylinder):
+        return _Primitive(p.GEOM_CYLINDER, o.radius, [0.0, 0.0, 0.0], o.length,
+                          ((o.p0 + o.p1) / 2.0).tolist(), _quat_z_to(o.p1 - o.p0))
+    if isinstance(o, Box):
+        return _Primitive(p.GEOM_BOX, 0.0, o.half_extents.tolist(), 0.0, o.center.tolist(),
+                          _quat_xyzw_from_rpy(o.rpy))
+    if isinstance(o, Sphere):
+        return _Primitive(p.GEOM_SPHERE, o.radius, [0.0, 0.0, 0.0], 0.0, o.center.tolist(), [0.0, 0.0, 0.0, 1.0])
+    raise TypeError(f"not a primitive obstacle: {type(o).__name__}")
+
+
+def _check_id(value: int, what: str) -> int:
+    if value < 0:
+        raise RuntimeError(f"PyBullet failed to create {what} (returned {value})")
+    return value
+
+
+@dataclass
+class Scene:
+    """Static obstacle bodies of one world in one PyBullet client.
+
+    Attributes:
+        client: the ``pybullet_utils.bullet_client.BulletClient`` the bodies live in.
+        world: the world they were built from.
+        body_ids: ids of all obstacle bodies (compound bodies hold several primitives).
+        obstacle_body: for each ``world.obstacles[i]``, the id of the body that holds it.
+    """
+
+    client: Any
+    world: World
+    body_ids: tuple[int, ...]
+    obstacle_body: tuple[int, ...]
+    options: SceneOptions = field(default_factory=SceneOptions)
+
+    @classmethod
+    def build(cls, client: Any, world: World, options: SceneOptions | None = None) -> Scene:
+        """Create every obstacle of ``world`` as a static (mass 0) body in ``client``.
+
+        Raises:
+            WorldError: a mesh file cannot be read (it was readable when the world was loaded).
+            RuntimeError: PyBullet refused to create a shape or body.
+        """
+        opts = options or SceneOptions()
+        body_of: list[int] = [-1] * len(world.obstacles)
+        bodies: list[int] = []
+        prims = [(i, o) for i, o in enumerate(world.obstacles) if not isinstance(o, Mesh)]
+        if opts.combine_primitives:
+            for s in range(0, len(prims), MAX_COMPOUND_CHILDREN):
+                chunk = prims[s:s + MAX_COMPOUND_CHILDREN]
+                b = _compound_body(client, [_primitive(o) for _, o in chunk], opts.primitive_rgba)
+                bodies.append(b)
+                for i, _ in chunk:
+                    body_of[i] = b
+        else:
+            for i, o in prims:
+                b = _single_body(client, _primitive(o), opts.primitive_rgba)
+                bodies.append(b)
+                body_of[i] = b
+        for i, o in enumerate(world.obstacles):
+            if isinstance(o, Mesh):
+                b = _mesh_body(client, o, i, opts.mesh_rgba)
+                bodies.append(b)
+                body_of[i] = b
+        return cls(client=client, world=world, body_ids=tuple(bodies), obstacle_body=tuple(body_of),
+                   options=opts)
+
+    def clearance(self, robot_id: int, max_distance: float = 1.0) -> float:
+        """Minimum signed distance (m) between any link of ``robot_id`` and any obstacle.
+
+        Negative means penetration.  Returns ``max_distance`` when nothing is closer than that.  Uses
+        ``getClosestPoints``; the caller has already called ``stepSimulation`` or
+        ``performCollisionDetection`` (or reset the robot's state) so link poses are current.
+        """
+        try:
+            dmax = float(max_distance)
+        except (TypeError, ValueError):
+            dmax = math.nan
+        if isinstance(max_distance, bool) or not (math.isfinite(dmax) and dmax > 0.0):
+            raise ValueError(f"Scene.clearance: max_distance must be a positive finite number of metres, "
+                             f"got {max_distance!r}")
+        cl = self.client
+        thresholds = [t for t in CLEARANCE_STAGES if t < dmax] + [dmax]
+        for d in thresholds:
+            best = d
+            for b in self.body_ids:
+                for pt in cl.getClosestPoints(robot_id, b, d):
+                    if pt[8] < best:
+                        best = pt[8]
+            if best < d:
+                return float(best)
+        return dmax
+
+    def in_contact(self, robot_id: int) -> bool:
+        """True if any link of ``robot_id`` touches or penetrates an obstacle (distance <= 0 m), judged
+        from the last step's contact points and from ``getClosestPoints`` at zero distance."""
+        cl = self.client
+        for b in self.body_ids:
+            for pt in cl.getContactPoints(robot_id, b):
+                if pt[8] <= 0.0:
+                    return True
+            for pt in cl.getClosestPoints(robot_id, b, 0.0):
+                if pt[8] <= 0.0:
+                    return True
+        return False
+
+    def remove(self) -> None:
+        """Remove the obstacle bodies from the client (the scene is unusable afterwards)."""
+        for b in self.body_ids:
+            self.client.removeBody(b)
+        self.body_ids = ()
+        self.obstacle_body = ()
+
+
+def _compound_body(client: Any, prims: Sequence[_Primitive], rgba: Sequence[float]) -> int:
+    n = len(prims)
+    shapes = [q.shape for q in prims]
+    radii = [q.radius for q in prims]
+    half = [q.half_extents for q in prims]
+    lengths = [q.length for q in prims]
+    pos = [q.position for q in prims]
+    orn = [q.orientation for q in prims]
+    cs = _check_id(client.createCollisionShapeArray(
+        shapeTypes=shapes, radii=radii, halfExtents=half, lengths=lengths,
+        collisionFramePositions=pos, collisionFrameOrientations=orn), "a compound collision shape")
+    vs = _check_id(client.createVisualShapeArray(
+        shapeTypes=shapes, radii=radii, halfExtents=half, lengths=lengths,
+        visualFramePositions=pos, visualFrameOrientations=orn, rgbaColors=[list(rgba)] * n),
+        "a compound visual shape")
+    return _check_id(client.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=cs, baseVisualShapeIndex=vs,
+                                            basePosition=[0.0, 0.0, 0.0]), "an obstacle body")
+
+
+def _single_body(client: Any, q: _Primitive, rgba: Sequence[float]) -> int:
+    if q.shape == p.GEOM_CYLINDER:
+        cs = client.createCollisionShape(p.GEOM_CYLINDER, radius=q.radius, height=q.length)
+        vs = client.createVisualShape(p.GEOM_CYLINDER, radius=q.radius, length=q.length, rgbaColor=list(rgba))
+    elif q.shape == p.GEOM_BOX:
+        cs = client.createCollisionShape(p.GEOM_BOX, halfExtents=q.half_extents)
+        vs = client.createVisualShape(p.GEOM_BOX, halfExtents=q.half_extents, rgbaColor=list(rgba))
+    else:
+        cs = client.createCollisionShape(p.GEOM_SPHERE, radius=q.radius)
+        vs = client.createVisualShape(p.GEOM_SPHERE, radius=q.radius, rgbaColor=list(rgba))
+    _check_id(cs, "a collision shape")
+    _check_id(vs, "a visual shape")
+    return _check_id(client.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=cs, baseVisualShapeIndex=vs,
+                                            basePosition=q.position, baseOrientation=q.orientation),
+                     "an obstacle body")
+
+
+def _mesh_body(client: Any, m: Mesh, index: int, rgba: Sequence[float]) -> int:
+    try:
+        vertices, faces = m.triangles()
+    except WorldError as e:
+        raise WorldError(e.detail, file=e.file, json_path=f"obstacles[{index}].path") from e
+    v = vertices.tolist()
+    idx = faces.ravel().tolist()
+    # vertices + indices => a static concave btBvhTriangleMeshShape (GEOM_FORCE_CONCAVE_TRIMESH is
+    # what a fileName-based shape would need; PyBullet accepts it here too)
+    cs = _check_id(client.createCollisionShape(p.GEOM_MESH, vertices=v, indices=idx,
+                                               flags=p.GEOM_FORCE_CONCAVE_TRIMESH), f"mesh shape of {m.path}")
+    vs = _check_id(client.createVisualShape(p.GEOM_MESH, vertices=v, indices=idx, rgbaColor=list(rgba)),
+                   f"mesh visual of {m.path}")
+    return _check_id(client.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=cs, baseVisualShapeIndex=vs,
+                                            basePosition=m.position.tolist(),
+                                            baseOrientation=_quat_xyzw_from_rpy(m.rpy)),
+                     f"mesh body of {m.path}")

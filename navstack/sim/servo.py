@@ -1,0 +1,139 @@
+"""Joint servo: PyBullet position control tracking theta_d(t).
+
+The paper assumes "low-level joint servo-loops capable of ensuring that the
+robot joint-space position remains close to any desired trajectory
+theta_d(t)".  Here that is PyBullet's ``POSITION_CONTROL`` motor on every
+joint, with explicit per-joint force limits and gains, fed both the desired
+position and the desired velocity (feed-forward).
+
+Rates: physics at ``physics_hz`` (default 240 Hz), the controller at
+``control_hz`` (default 60 Hz); one control step = ``substeps`` physics steps.
+Within a control period the set-point is interpolated linearly from the
+previous theta_d to the new one (a first-order hold), so the motors never see
+a stale position paired with a non-zero velocity.  Each physics step gets the
+set-point of its start plus the desired rate, which PyBullet's velocity-level
+motor integrates across the step.
+Gravity is on (-9.81 m/s^2 along world z): the testbed is on the ground.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet
+from numpy.typing import ArrayLike
+
+from navstack.sim.body import RobotBody
+
+
+@dataclass(frozen=True)
+class ServoConfig:
+    """Servo and simulation rates, gains and force limits.
+
+    Forces are N for the lathe bed and N m for the revolute joints.  Gains are
+    PyBullet's dimensionless motor gains (``positionGain``/``velocityGain``).
+    """
+
+    physics_hz: float = 240.0
+    control_hz: float = 60.0
+    position_gain: float = 0.6
+    velocity_gain: float = 1.0
+    lathe_force: float = 5000.0
+    arm_torque: float = 2000.0
+    serpentine_torque: float = 200.0
+    gravity: float = -9.81
+    solver_iterations: int = 100
+
+    def __post_init__(self) -> None:
+        for name in ("physics_hz", "control_hz", "lathe_force", "arm_torque", "serpentine_torque"):
+            v = getattr(self, name)
+            if not np.isfinite(v) or v <= 0:
+                raise ValueError(f"ServoConfig.{name} must be a positive number, got {v!r}")
+        for name in ("position_gain", "velocity_gain"):
+            v = getattr(self, name)
+            if not np.isfinite(v) or not 0 < v <= 1:
+                raise ValueError(f"ServoConfig.{name} must be in (0, 1], got {v!r}")
+        ratio = self.physics_hz / self.control_hz
+        if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+            raise ValueError(
+                f"ServoConfig: physics_hz ({self.physics_hz}) must be a whole multiple"
+                f" of control_hz ({self.control_hz})"
+            )
+
+    @property
+    def substeps(self) -> int:
+        """Physics steps per control step."""
+        return round(self.physics_hz / self.control_hz)
+
+    @property
+    def control_dt(self) -> float:
+        """Control period [s]."""
+        return 1.0 / self.control_hz
+
+
+class JointServo:
+    """Tracks (theta_d, thetadot_d) on every joint of ``body``."""
+
+    def __init__(self, body: RobotBody, config: ServoConfig = ServoConfig()) -> None:
+        self.body = body
+        self.config = config
+        n = body.chain.n
+        forces = np.full(n, config.arm_torque)
+        forces[body.chain.prismatic] = config.lathe_force
+        forces[8:] = config.serpentine_torque
+        self.forces = list(forces)
+        self.kp = [config.position_gain] * n
+        self.kd = [config.velocity_gain] * n
+        client = body.client
+        client.setTimeStep(1.0 / config.physics_hz)
+        client.setGravity(0.0, 0.0, config.gravity)
+        client.setPhysicsEngineParameter(numSubSteps=0, numSolverIterations=config.solver_iterations)
+        self._prev: np.ndarray | None = None
+        self._target = np.zeros(n)
+        self._rate = np.zeros(n)
+
+    def hold(self, q: ArrayLike) -> None:
+        """Start from rest at ``q`` (the first command interpolates from here)."""
+        self._prev = self.body.chain.check(q).copy()
+        self._target = self._prev.copy()
+        self._rate = np.zeros_like(self._prev)
+
+    def command(self, theta_d: ArrayLike, thetadot_d: ArrayLike) -> None:
+        """Set the set-point reached at the end of the next control period.
+
+        Raises ``ValueError`` on a wrong length or a non-finite value: NaN never reaches the motors.
+        """
+        q = self.body.chain.check(theta_d)
+        qd = np.asarray(thetadot_d, dtype=np.float64)
+        if qd.shape != q.shape or not np.isfinite(qd).all():
+            raise ValueError("thetadot_d must be 20 finite joint rates")
+        if self._prev is None:
+            self._prev = q.copy()
+        else:
+            self._prev = self._target
+        self._target = q.copy()
+        self._rate = qd.copy()
+
+    def step(self) -> None:
+        """Advance the physics by one control period, interpolating the set-point."""
+        if self._prev is None:
+            raise RuntimeError("JointServo.step() before hold() or command()")
+        client = self.body.client
+        n = self.config.substeps
+        for i in range(n):
+            # the set-point at the START of physics step i; the motor's velocity
+            # target carries the joint across the step (measured: this removes
+            # the one-step overshoot that an end-of-step target produces)
+            q = self._prev + (self._target - self._prev) * (i / n)
+            client.setJointMotorControlArray(
+                self.body.body_id,
+                self.body.joint_indices,
+                pybullet.POSITION_CONTROL,
+                targetPositions=list(q),
+                targetVelocities=list(self._rate),
+                forces=self.forces,
+                positionGains=self.kp,
+                velocityGains=self.kd,
+            )
+            client.stepSimulation()

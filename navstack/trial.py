@@ -1,0 +1,374 @@
+"""One closed-loop trial: sense -> estimate -> plan -> slither -> control -> servo.
+
+``run_trial`` is what ``navstack run`` runs (interfaces.md sections 3 and 5).
+Each trial owns one PyBullet ``BulletClient`` (DIRECT); no global simulator
+state.  The obstacles go to the simulator only: the planner sees the tip
+sensor readings, the controller sees the tip command and the robot's own
+state.
+
+Per control step (``ServoConfig.control_hz``, default 60 Hz):
+
+1. read the measured joints, the actual tip; advance the goal index when the
+   actual tip is within the current goal's tolerance,
+2. cast the tip rays (``--planner field``) and filter the ranges,
+3. the planner gives the tip command ``x_d, xdot_d`` (world frame),
+4. the slithering controller (equation 4) integrates ``theta_d``,
+5. the servo tracks ``theta_d`` for one control period,
+6. metrics: clearance and contact of the measured robot against the obstacles,
+   commanded-vs-actual tip error, serpentine deviation from the recorded path.
+
+Contact is *detected*, not simulated: the obstacles do not push the robot
+(PyBullet collision response between robot and obstacles is off), so a
+failing controller is seen cutting through members and the depth is reported
+as a negative ``min_clearance``.  The trial ends when every goal is reached,
+at ``time_limit``, when the planner reports a stall, or when the arm is pinned
+at a joint limit while the tip lags its command.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from navstack.jpl import BACKBONE_FRAMES, jpl_serpentine
+from navstack.sim.servo import ServoConfig
+
+CONTROLLERS = ("slither", "tip-only")
+PLANNERS = ("field", "scripted")
+REASONS = ("reached", "collision", "timeout", "stalled", "joint_limit", "error")
+
+
+@dataclass(frozen=True)
+class TrialConfig:
+    """Everything that sets up a trial besides the world, controller, planner and seed."""
+
+    servo: ServoConfig = field(default_factory=ServoConfig)
+    slither_mode: str = "projected"
+    """Slithering task form for ``--controller slither``: ``projected`` (2 rows per joint point) or ``full``."""
+    scripted_speed: float = 0.06
+    """Cruise tip speed of the scripted planner [m/s]."""
+    clearance_horizon: float = 0.5
+    """Distances beyond this [m] are not resolved by the clearance query (reported as this value)."""
+    joint_limit_time: float = 2.0
+    """A joint held at its limit this long [s] while the tip lags by > ``joint_limit_lag`` ends the trial."""
+    joint_limit_lag: float = 0.05
+    """Tip lag [m] that, with a pinned joint, counts as a joint-limit failure."""
+
+    def __post_init__(self) -> None:
+        if self.slither_mode not in ("projected", "full"):
+            raise ValueError(f"TrialConfig.slither_mode must be 'projected' or 'full', got {self.slither_mode!r}")
+        for name in ("scripted_speed", "clearance_horizon", "joint_limit_time", "joint_limit_lag"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
+                raise ValueError(f"TrialConfig.{name} must be a positive number, got {v!r}")
+
+
+@dataclass
+class TrialResult:
+    """The content of ``result.json`` (interfaces.md section 3)."""
+
+    world: str
+    seed: int
+    controller: str
+    planner: str
+    success: bool
+    reason: str
+    goals_reached: int
+    sim_time: float
+    steps: int
+    wall_time: float
+    metrics: dict[str, float | int]
+    error: str | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        if d["error"] is None:
+            del d["error"]
+        return d
+
+
+@dataclass
+class Trajectory:
+    """Per-control-step samples written to ``trajectory.npz``."""
+
+    t: list[float] = field(default_factory=list)
+    q: list[np.ndarray] = field(default_factory=list)
+    q_des: list[np.ndarray] = field(default_factory=list)
+    tip_des: list[np.ndarray] = field(default_factory=list)
+
+    def save(self, path: Path) -> None:
+        n = len(self.t)
+        arrays = {
+            "t": np.asarray(self.t, dtype=np.float64).reshape(n),
+            "q": np.asarray(self.q, dtype=np.float64).reshape(n, 20),
+            "q_des": np.asarray(self.q_des, dtype=np.float64).reshape(n, 20),
+            "tip_des": np.asarray(self.tip_des, dtype=np.float64).reshape(n, 3),
+        }
+        tmp = path.with_name(path.name + ".tmp.npz")
+        np.savez_compressed(tmp, **arrays)
+        os.replace(tmp, path)
+
+
+def _write_json(path: Path, data: dict[str, Any]) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(data, indent=2) + "\n")
+    os.replace(tmp, path)
+
+
+def _check_choice(name: str, value: str, allowed: tuple[str, ...]) -> None:
+    if value not in allowed:
+        raise ValueError(f"{name} must be one of {', '.join(allowed)}; got {value!r}")
+
+
+def run_trial(
+    world,
+    *,
+    controller: str = "slither",
+    planner: str = "field",
+    seed: int = 0,
+    out_dir: str | os.PathLike | None = None,
+    config: TrialConfig | None = None,
+    render: bool = False,
+) -> TrialResult:
+    """Run one closed-loop trial headless and return its result.
+
+    ``world`` is a :class:`navstack.world.World` or a path to a world file.
+    With ``out_dir`` the trial writes ``result.json`` and ``trajectory.npz``
+    there (and ``scene.png`` with ``render=True``).  Bad input (an unreadable
+    world, an unknown controller or planner) raises ``WorldError`` /
+    ``ValueError``; a failure inside the simulation is returned as reason
+    ``error`` with the message in ``error``.
+    """
+    from navstack.world import World, load_world
+
+    _check_choice("controller", controller, CONTROLLERS)
+    _check_choice("planner", planner, PLANNERS)
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+    cfg = config or TrialConfig()
+    if not isinstance(world, World):
+        world = load_world(world)
+    out = Path(out_dir) if out_dir is not None else None
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+
+    sim = _Simulation(world, controller, planner, int(seed), cfg)
+    wall0 = time.perf_counter()
+    try:
+        reason = sim.run()
+        error = None
+    except KeyboardInterrupt:
+        reason, error = "error", "interrupted"
+        sim.finish_partial()
+        if out is not None:
+            _save(out, sim, reason, error, time.perf_counter() - wall0, render=False)
+        raise
+    except Exception as exc:  # noqa: BLE001 - recorded as reason "error", never a silent pass
+        reason, error = "error", f"{type(exc).__name__}: {exc}"
+        sim.finish_partial()
+    result = _save(out, sim, reason, error, time.perf_counter() - wall0, render=render)
+    return result
+
+
+def _save(out: Path | None, sim: _Simulation, reason: str, error: str | None, wall: float, render: bool):
+    result = sim.result(reason, error, wall)
+    if out is not None:
+        sim.trajectory.save(out / "trajectory.npz")
+        if render and reason != "error":
+            from navstack.render import render_scene
+
+            render_scene(sim, out / "scene.png")
+        _write_json(out / "result.json", result.to_dict())
+    sim.close()
+    return result
+
+
+class _Simulation:
+    """The PyBullet side and the pipeline objects of one trial."""
+
+    def __init__(self, world, controller: str, planner: str, seed: int, cfg: TrialConfig) -> None:
+        import pybullet
+        from pybullet_utils.bullet_client import BulletClient
+
+        from navstack.control import ControlConfig, SlitherController
+        from navstack.sim.body import RobotBody
+        from navstack.sim.scene import Scene
+        from navstack.sim.servo import JointServo
+
+        self.world = world
+        self.controller_name = controller
+        self.planner_name = planner
+        self.seed = seed
+        self.cfg = cfg
+        self.chain = jpl_serpentine()
+        self.client = BulletClient(connection_mode=pybullet.DIRECT)
+        robot = world.robot
+        self.T0 = robot.base.transform()
+        self.R0 = self.T0[:3, :3]
+        self.p0 = self.T0[:3, 3]
+        self.body = RobotBody.build(
+            self.client,
+            self.chain,
+            self.T0,
+            serpentine_radius=robot.serpentine_radius,
+            arm_radius=robot.arm_radius,
+        )
+        self.q0 = self.chain.check(robot.q0)
+        self.body.reset(self.q0)
+        self.scene = Scene.build(self.client, world)
+        for obstacle in self.scene.body_ids:  # contact is measured, not simulated (module docstring)
+            for link in range(-1, self.client.getNumJoints(self.body.body_id)):
+                self.client.setCollisionFilterPair(self.body.body_id, obstacle, link, -1, 0)
+        self.servo = JointServo(self.body, cfg.servo)
+        self.servo.hold(self.q0)
+        self.dt = cfg.servo.control_dt
+        mode = "none" if controller == "tip-only" else cfg.slither_mode
+        self.controller = SlitherController(self.chain, ControlConfig(dt=self.dt, slither=mode), self.q0)
+        self.goals = np.array([g.position for g in world.goals])
+        self.tolerances = np.array([g.tolerance for g in world.goals])
+        F = self.chain.frames(self.q0)
+        tip0 = self._to_world(F[21, :3, 3])
+        heading0 = self.R0 @ F[20, :3, 0]
+        self.rng = np.random.default_rng(seed)
+        self.sensor = None
+        self.estimator = None
+        if planner == "scripted":
+            from navstack.scripted import ScriptedConfig, ScriptedPlanner
+
+            self.planner = ScriptedPlanner(tip0, heading0, self.goals, ScriptedConfig(speed=cfg.scripted_speed))
+        else:
+            from navstack.estimate import RangeEstimator
+            from navstack.planner import PotentialFieldPlanner
+            from navstack.sensing import SensorConfig
+            from navstack.sim.rays import RaySensor
+
+            sensor_cfg = SensorConfig()
+            self.sensor = RaySensor(self.client, sensor_cfg, self.body.body_id, self.rng)
+            self.estimator = RangeEstimator(sensor_cfg)
+            self.planner = PotentialFieldPlanner(start=tip0, heading=heading0)
+        self.trajectory = Trajectory()
+        self.goal_index = 0
+        self.steps = 0
+        self.tip_error_max = 0.0
+        self.slither_dev_max = 0.0
+        self.min_clearance = np.inf
+        self.contacts = 0
+        self.pinned_time = 0.0
+        self.tip_des = tip0.copy()
+        self.closed = False
+
+    # ---- frames ---------------------------------------------------------
+    def _to_world(self, p_base: np.ndarray) -> np.ndarray:
+        return self.R0 @ p_base + self.p0
+
+    def _to_base(self, p_world: np.ndarray) -> np.ndarray:
+        return self.R0.T @ (p_world - self.p0)
+
+    # ---- the loop ---------------------------------------------------------
+    def _measure(self, q: np.ndarray) -> np.ndarray:
+        """Update metrics from the measured joints ``q``; return the measured tip (world)."""
+        F = self.chain.frames(q)
+        tip = self._to_world(F[21, :3, 3])
+        clearance = self.scene.clearance(self.body.body_id, self.cfg.clearance_horizon)
+        self.min_clearance = min(self.min_clearance, clearance)
+        if clearance <= 0.0:
+            self.contacts += 1
+        path = self.controller.path
+        for f in BACKBONE_FRAMES[1:]:
+            self.slither_dev_max = max(self.slither_dev_max, path.distance_to_path(F[f, :3, 3]))
+        return tip
+
+    def _advance_goals(self, tip: np.ndarray) -> None:
+        while self.goal_index < len(self.goals) and (
+            np.linalg.norm(tip - self.goals[self.goal_index]) <= self.tolerances[self.goal_index]
+        ):
+            self.goal_index += 1
+
+    def run(self) -> str:
+        self.client.performCollisionDetection()
+        q, _ = self.body.joint_state()
+        tip = self._measure(q)
+        self._record(q, self.q0)
+        limit_steps = int(np.ceil(self.world.time_limit / self.dt))
+        pinned_steps = int(np.ceil(self.cfg.joint_limit_time / self.dt))
+        pinned = 0
+        while True:
+            self._advance_goals(tip)
+            if self.goal_index >= len(self.goals):
+                return "collision" if self.contacts else "reached"
+            if self.steps >= limit_steps:
+                return "collision" if self.contacts else "timeout"
+            F = self.chain.frames(q)
+            goal = self.goals[self.goal_index]
+            reading = None
+            if self.sensor is not None:
+                tip_T = self.T0 @ F[21]
+                raw = self.sensor.read(tip_T)
+                reading = self.estimator.update(raw, self.dt)
+            cmd = self.planner.step(
+                self.dt, tip, self.R0 @ F[20, :3, 0], reading, goal, float(self.tolerances[self.goal_index])
+            )
+            if cmd.stalled:
+                return "collision" if self.contacts else "stalled"
+            x_d = np.asarray(cmd.position, dtype=np.float64)
+            v_d = np.asarray(cmd.velocity, dtype=np.float64)
+            if not (np.isfinite(x_d).all() and np.isfinite(v_d).all()):
+                raise FloatingPointError(f"planner produced a non-finite tip command at step {self.steps}")
+            self.tip_des = x_d
+            theta_d = self.controller.step(self._to_base(x_d), self.R0.T @ v_d)
+            self.servo.command(theta_d, self.controller.thetadot_d)
+            self.servo.step()
+            self.steps += 1
+            q, _ = self.body.joint_state()
+            tip = self._measure(q)
+            self.tip_error_max = max(self.tip_error_max, float(np.linalg.norm(tip - x_d)))
+            self._record(q, theta_d)
+            at_limit = np.any((theta_d <= self.chain.lower + 1e-6) | (theta_d >= self.chain.upper - 1e-6))
+            pinned = pinned + 1 if at_limit and np.linalg.norm(tip - x_d) > self.cfg.joint_limit_lag else 0
+            if pinned >= pinned_steps:
+                return "collision" if self.contacts else "joint_limit"
+
+    def _record(self, q: np.ndarray, q_des: np.ndarray) -> None:
+        tr = self.trajectory
+        tr.t.append(self.steps * self.dt)
+        tr.q.append(np.array(q, dtype=np.float64))
+        tr.q_des.append(np.array(q_des, dtype=np.float64))
+        tr.tip_des.append(np.array(self.tip_des, dtype=np.float64))
+
+    def finish_partial(self) -> None:
+        """Make the recorded arrays consistent after an exception mid-step."""
+        tr = self.trajectory
+        n = min(len(tr.t), len(tr.q), len(tr.q_des), len(tr.tip_des))
+        del tr.t[n:], tr.q[n:], tr.q_des[n:], tr.tip_des[n:]
+
+    def result(self, reason: str, error: str | None, wall: float) -> TrialResult:
+        return TrialResult(
+            world=self.world.name,
+            seed=self.seed,
+            controller=self.controller_name,
+            planner=self.planner_name,
+            success=reason == "reached",
+            reason=reason,
+            goals_reached=int(self.goal_index),
+            sim_time=round(self.steps * self.dt, 9),
+            steps=int(self.steps),
+            wall_time=round(wall, 3),
+            metrics={
+                "tip_error_max": float(self.tip_error_max),
+                "slither_deviation_max": float(self.slither_dev_max),
+                "min_clearance": float(self.min_clearance if np.isfinite(self.min_clearance) else -1.0),
+                "contacts": int(self.contacts),
+            },
+            error=error,
+        )
+
+    def close(self) -> None:
+        if not self.closed:
+            self.client.disconnect()
+            self.closed = True

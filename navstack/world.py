@@ -1,0 +1,820 @@
+"""World files (``navstack-world/1``, JSON): load, validate, save.
+
+A world is the robot's base placement and start posture, static obstacles
+(known to the simulator only: the planner and controller never read them) and
+tip goals.  The format is interfaces.md section 2.  Units: metres, radians,
+seconds.
+
+Keys (anything else is an error, except inside ``extra``), whether required, default and constraint:
+
+* ``format``: required; exactly ``"navstack-world/1"`` (checked first).
+* ``name``: required; non-empty string.
+* ``description``: optional; ``""``.
+* ``robot``: required; an object (may be ``{}``), with all keys optional:
+  ``base`` (``{"position": [0,0,0], "rpy": [0,0,0]}``, each of the two optional; m and rad: roll about
+  world X, pitch about world Y, yaw about world Z, in that order), ``q0`` (:data:`navstack.jpl.Q_DEFAULT`;
+  20 numbers inside the joint limits), ``serpentine_radius`` (0.025 m, > 0), ``arm_radius`` (0.06 m, > 0).
+* ``obstacles``: required; an array, may be empty (see below).
+* ``goals``: required; an array of at least one ``{"position": [x,y,z], "tolerance": t}``, ``tolerance``
+  optional (0.02 m, > 0).
+* ``time_limit``: optional; 60.0 s, > 0.
+* ``family``: optional; ``null`` or a non-empty string (reports group by it).
+* ``extra``: optional; ``{}``; any JSON object, checked only for being finite JSON.
+
+Obstacles (``type`` is required and selects the kind):
+
+* ``cylinder``: ``p0``, ``p1`` (m, required, at least 1e-9 m apart), ``radius`` (m, required, > 0).
+  Flat-ended, its axis from ``p0`` to ``p1``.
+* ``box``: ``center`` (m, required), ``half_extents`` (m, required, each > 0), ``rpy`` (rad, default 0).
+* ``sphere``: ``center`` (m, required), ``radius`` (m, required, > 0).
+* ``mesh``: ``path`` (required; relative to the world file's folder, or absolute; any format trimesh reads),
+  ``position`` (m, default 0), ``rpy`` (rad, default 0), ``scale`` (default 1.0, > 0).  The file is loaded
+  with trimesh when the world is loaded; it must exist and contain at least one triangle.
+
+Numbers are JSON numbers: ``true``/``false`` are not numbers, and the ``NaN``/``Infinity`` literals
+(which Python's :mod:`json` accepts) and overflowing values such as ``1e400`` are rejected.  Duplicate
+keys in one object are rejected.  Joint values of ``q0`` may exceed the limits by at most 1e-9 rad
+(rounding of values written in degrees); anything further out is an error.
+
+Every problem raises :class:`WorldError` (a ``ValueError``) whose message names the file, the JSON path
+of the bad field (e.g. ``obstacles[3].radius``, ``robot.q0[7]``) and what was expected.  The dataclasses
+validate their own fields too (same checks, with the field name as the path), so a ``World`` built in
+code is as trustworthy as one loaded from a file.
+
+The dataclasses are frozen; their vectors are read-only float64 numpy arrays.  Equality compares
+values (``source`` is ignored), so ``world_from_dict(w.to_dict()) == w``.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+import os
+from dataclasses import dataclass, field, fields
+from functools import lru_cache
+from pathlib import Path
+from typing import Any, ClassVar, Union
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
+
+from navstack import jpl
+
+FORMAT = "navstack-world/1"
+"""The value of the ``format`` key this module reads and writes."""
+
+DEFAULT_TIME_LIMIT = 60.0
+"""Seconds, when ``time_limit`` is absent."""
+DEFAULT_TOLERANCE = 0.02
+"""Metres, when a goal has no ``tolerance``."""
+MIN_CYLINDER_LENGTH = 1e-9
+"""Metres: a cylinder's ``p0`` and ``p1`` must be at least this far apart."""
+JOINT_LIMIT_SLACK = 1e-9
+"""Radians (metres for the lathe bed) by which ``q0`` may exceed the joint limits."""
+
+FloatArray = NDArray[np.float64]
+
+
+# --------------------------------------------------------------------------- errors
+
+
+class WorldError(ValueError):
+    """A world file or world data is invalid.
+
+    Attributes:
+        file: the file as the caller named it (``None`` for data that did not come from a file).
+        json_path: JSON path of the bad field, e.g. ``obstacles[3].radius``; ``""`` for the whole
+            document (unreadable file, invalid JSON, top level not an object).
+        detail: what was expected / what is wrong, without the file and path.
+    """
+
+    def __init__(self, detail: str, *, file: str | os.PathLike[str] | None = None, json_path: str = ""):
+        self.file = None if file is None else os.fspath(file)
+        self.json_path = json_path
+        self.detail = detail
+        where = self.file if self.file is not None else "world data"
+        loc = json_path if json_path else "(top level)"
+        super().__init__(f"{where}: {loc}: {detail}")
+
+
+class _NonFinite:
+    """Stands in for a ``NaN``/``Infinity`` literal so the validator can report where it was."""
+
+    __slots__ = ("literal",)
+
+    def __init__(self, literal: str):
+        self.literal = literal
+
+
+class _Obj(dict):
+    """A JSON object that remembers keys that appeared more than once."""
+
+    duplicates: tuple[str, ...] = ()
+
+
+def _pairs_hook(pairs: list[tuple[str, Any]]) -> _Obj:
+    out = _Obj()
+    dups = []
+    for k, v in pairs:
+        if k in out:
+            dups.append(k)
+        out[k] = v
+    if dups:
+        out.duplicates = tuple(dups)
+    return out
+
+
+def _describe(v: Any) -> str:
+    """A short JSON-ish description of a value for error messages."""
+    if isinstance(v, _NonFinite):
+        return v.literal
+    if v is None:
+        return "null"
+    if isinstance(v, (bool, np.bool_)):
+        return "true" if v else "false"
+    if isinstance(v, (float, np.floating)) and not math.isfinite(v):
+        return f"{v!r} (a number too large for a float, or a non-finite value)"
+    if isinstance(v, (int, float, np.integer, np.floating)):
+        return repr(float(v)) if isinstance(v, (float, np.floating)) else str(int(v))
+    if isinstance(v, str):
+        s = json.dumps(v)
+        return s if len(s) <= 60 else s[:57] + '..."'
+    if isinstance(v, dict):
+        return "an object"
+    if isinstance(v, (list, tuple)):
+        return f"an array of {len(v)} value{'' if len(v) == 1 else 's'}"
+    if isinstance(v, np.ndarray):
+        return f"an array of shape {v.shape}"
+    return f"a {type(v).__name__}"
+
+
+class _Ctx:
+    """Where validation is happening: the file (for messages) and the folder meshes are relative to."""
+
+    def __init__(self, file: str | os.PathLike[str] | None, base_dir: Path | None):
+        self.file = file
+        self.base_dir = base_dir
+
+    def error(self, path: str, detail: str) -> WorldError:
+        return WorldError(detail, file=self.file, json_path=path)
+
+
+_CODE = _Ctx(None, None)  # for dataclasses built in code
+
+
+def _join(path: str, key: str) -> str:
+    return f"{path}.{key}" if path else key
+
+
+# --------------------------------------------------------------------------- value checks
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+
+
+def _number(ctx: _Ctx, path: str, v: Any, *, positive: bool = False) -> float:
+    """A finite float (and > 0 if ``positive``)."""
+    what = "a positive number" if positive else "a finite number"
+    if not _is_number(v):
+        raise ctx.error(path, f"expected {what}, got {_describe(v)}")
+    try:
+        x = float(v)
+    except OverflowError:
+        x = math.inf
+    if not math.isfinite(x):
+        raise ctx.error(path, f"expected {what}, got {_describe(v)}")
+    if positive and not x > 0.0:
+        raise ctx.error(path, f"expected {what}, got {_describe(v)}")
+    return x
+
+
+def _vector(ctx: _Ctx, path: str, v: Any, n: int, *, positive: bool = False) -> FloatArray:
+    """A read-only float64 array of ``n`` finite numbers."""
+    if isinstance(v, np.ndarray):
+        if v.ndim != 1:
+            raise ctx.error(path, f"expected an array of {n} numbers, got {_describe(v)}")
+        v = v.tolist()
+    if not isinstance(v, (list, tuple)):
+        raise ctx.error(path, f"expected an array of {n} numbers, got {_describe(v)}")
+    if len(v) != n:
+        raise ctx.error(path, f"expected an array of {n} numbers, got {_describe(v)}")
+    out = np.array([_number(ctx, f"{path}[{i}]", x, positive=positive) for i, x in enumerate(v)])
+    out.setflags(write=False)
+    return out
+
+
+def _string(ctx: _Ctx, path: str, v: Any, *, nonempty: bool = False) -> str:
+    if not isinstance(v, str) or (nonempty and not v.strip()):
+        raise ctx.error(path, f"expected a {'non-empty ' if nonempty else ''}string, got {_describe(v)}")
+    return v
+
+
+def _object(ctx: _Ctx, path: str, v: Any, required: tuple[str, ...], optional: tuple[str, ...]) -> dict:
+    """Check ``v`` is an object with all ``required`` keys and nothing outside required + optional."""
+    if not isinstance(v, dict):
+        raise ctx.error(path, f"expected an object, got {_describe(v)}")
+    dups = getattr(v, "duplicates", ())
+    if dups:
+        raise ctx.error(_join(path, dups[0]), "duplicate key (a JSON object may name each key once)")
+    allowed = required + optional
+    for k in v:
+        if not isinstance(k, str):
+            raise ctx.error(path, f"object keys must be strings, got {_describe(k)}")
+        if k not in allowed:
+            raise ctx.error(_join(path, k), f"unknown key; expected one of: {', '.join(allowed)}")
+    for k in required:
+        if k not in v:
+            raise ctx.error(_join(path, k), "missing required key")
+    return v
+
+
+def _json_value(ctx: _Ctx, path: str, v: Any) -> Any:
+    """A deep copy of ``v`` as plain JSON (dict/list/str/finite number/bool/null); errors name the path."""
+    if v is None or isinstance(v, (bool, str)):
+        return v
+    if isinstance(v, _NonFinite):
+        raise ctx.error(path, f"expected a finite number, got {v.literal} (not valid JSON)")
+    if isinstance(v, np.bool_):
+        return bool(v)
+    if _is_number(v):
+        x = _number(ctx, path, v)
+        return int(v) if isinstance(v, (int, np.integer)) else x
+    if isinstance(v, dict):
+        dups = getattr(v, "duplicates", ())
+        if dups:
+            raise ctx.error(_join(path, dups[0]), "duplicate key (a JSON object may name each key once)")
+        out = {}
+        for k, x in v.items():
+            if not isinstance(k, str):
+                raise ctx.error(path, f"object keys must be strings, got {_describe(k)}")
+            out[k] = _json_value(ctx, _join(path, k), x)
+        return out
+    if isinstance(v, (list, tuple)):
+        return [_json_value(ctx, f"{path}[{i}]", x) for i, x in enumerate(v)]
+    raise ctx.error(path, f"expected a JSON value (object, array, string, finite number, bool, null), "
+                          f"got {_describe(v)}")
+
+
+def _rotation(rpy: FloatArray) -> NDArray[np.float64]:
+    """3x3 rotation of roll about world X, then pitch about world Y, then yaw about world Z."""
+    return Rotation.from_euler("xyz", rpy).as_matrix()
+
+
+def _pose(position: FloatArray, rpy: FloatArray) -> FloatArray:
+    T = np.eye(4)
+    T[:3, :3] = _rotation(rpy)
+    T[:3, 3] = position
+    return T
+
+
+class _ValueEq:
+    """Value equality/hash over dataclass fields (numpy arrays compared elementwise)."""
+
+    _ignore: ClassVar[tuple[str, ...]] = ()
+
+    def _key(self) -> tuple:
+        out = []
+        for f in fields(self):  # type: ignore[arg-type]
+            if f.name in self._ignore:
+                continue
+            v = getattr(self, f.name)
+            if isinstance(v, np.ndarray):
+                v = (v.shape, tuple(v.ravel().tolist()))
+            elif isinstance(v, dict):
+                v = json.dumps(v, sort_keys=True)
+            elif isinstance(v, Path):
+                v = str(v)
+            out.append(v)
+        return tuple(out)
+
+    def __eq__(self, other: object) -> bool:
+        if type(other) is not type(self):
+            return NotImplemented
+        return self._key() == other._key()  # type: ignore[attr-defined]
+
+    def __hash__(self) -> int:
+        return hash((type(self).__name__, self._key()))
+
+
+def _set(obj: object, name: str, value: Any) -> None:
+    object.__setattr__(obj, name, value)
+
+
+# --------------------------------------------------------------------------- dataclasses
+
+
+@dataclass(frozen=True, eq=False)
+class Base(_ValueEq):
+    """Pose of DH frame 0 in the world.
+
+    Attributes:
+        position: (3,) metres.
+        rpy: (3,) radians: roll about world X, pitch about world Y, yaw about world Z, applied in that
+            order (pybullet's ``getQuaternionFromEuler``; scipy ``Rotation.from_euler("xyz", rpy)``).
+    """
+
+    position: FloatArray = field(default_factory=lambda: np.zeros(3))
+    rpy: FloatArray = field(default_factory=lambda: np.zeros(3))
+
+    def __post_init__(self) -> None:
+        _set(self, "position", _vector(_CODE, "Base.position", self.position, 3))
+        _set(self, "rpy", _vector(_CODE, "Base.rpy", self.rpy, 3))
+
+    def transform(self) -> FloatArray:
+        """(4, 4) homogeneous transform world <- DH frame 0 (metres)."""
+        return _pose(self.position, self.rpy)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"position": self.position.tolist(), "rpy": self.rpy.tolist()}
+
+
+@dataclass(frozen=True, eq=False)
+class RobotSpec(_ValueEq):
+    """The robot's placement, start posture and collision radii.
+
+    Attributes:
+        base: pose of DH frame 0 in the world.
+        q0: (20,) start joint vector (q[0] in metres, the rest radians), inside the joint limits.
+        serpentine_radius: capsule radius of the serpentine links (m).
+        arm_radius: capsule radius of the arm links (m).
+    """
+
+    base: Base = field(default_factory=Base)
+    q0: FloatArray = field(default_factory=lambda: jpl.Q_DEFAULT.copy())
+    serpentine_radius: float = jpl.SERPENTINE_RADIUS
+    arm_radius: float = jpl.ARM_RADIUS
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.base, Base):
+            raise _CODE.error("RobotSpec.base", f"expected a Base, got {_describe(self.base)}")
+        _set(self, "q0", _q0(_CODE, "RobotSpec.q0", self.q0))
+        _set(self, "serpentine_radius",
+             _number(_CODE, "RobotSpec.serpentine_radius", self.serpentine_radius, positive=True))
+        _set(self, "arm_radius", _number(_CODE, "RobotSpec.arm_radius", self.arm_radius, positive=True))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "base": self.base.to_dict(),
+            "q0": self.q0.tolist(),
+            "serpentine_radius": self.serpentine_radius,
+            "arm_radius": self.arm_radius,
+        }
+
+
+def _q0(ctx: _Ctx, path: str, v: Any) -> FloatArray:
+    q = _vector(ctx, path, v, jpl.N_JOINTS)
+    for i, x in enumerate(q):
+        lo, hi = jpl.LOWER[i], jpl.UPPER[i]
+        if x < lo - JOINT_LIMIT_SLACK or x > hi + JOINT_LIMIT_SLACK:
+            unit = "m" if jpl.PRISMATIC[i] else "rad"
+            raise ctx.error(f"{path}[{i}]", f"expected a value in [{lo:.6g}, {hi:.6g}] {unit} "
+                                            f"(limits of joint {i + 1}), got {_describe(x)}")
+    return q
+
+
+@dataclass(frozen=True, eq=False)
+class Cylinder(_ValueEq):
+    """Flat-ended cylinder (as PyBullet's) with its axis from ``p0`` to ``p1`` (m); ``radius`` in m."""
+
+    p0: FloatArray
+    p1: FloatArray
+    radius: float
+    type: ClassVar[str] = "cylinder"
+
+    def __post_init__(self) -> None:
+        _set(self, "p0", _vector(_CODE, "Cylinder.p0", self.p0, 3))
+        _set(self, "p1", _vector(_CODE, "Cylinder.p1", self.p1, 3))
+        _set(self, "radius", _number(_CODE, "Cylinder.radius", self.radius, positive=True))
+        _check_length(_CODE, "Cylinder.p1", self.p0, self.p1)
+
+    @property
+    def length(self) -> float:
+        """Axis length |p1 - p0| (m)."""
+        return float(np.linalg.norm(self.p1 - self.p0))
+
+    def to_dict(self, relative_to: Path | None = None) -> dict[str, Any]:
+        return {"type": self.type, "p0": self.p0.tolist(), "p1": self.p1.tolist(), "radius": self.radius}
+
+
+def _check_length(ctx: _Ctx, path: str, p0: FloatArray, p1: FloatArray) -> None:
+    if not float(np.linalg.norm(p1 - p0)) >= MIN_CYLINDER_LENGTH:
+        raise ctx.error(path, f"expected a point different from p0 (a cylinder needs a length of at least "
+                              f"{MIN_CYLINDER_LENGTH:g} m), got {p1.tolist()}")
+
+
+@dataclass(frozen=True, eq=False)
+class Box(_ValueEq):
+    """Box centred at ``center`` (m) with ``half_extents`` (m, each > 0) and orientation ``rpy`` (rad)."""
+
+    center: FloatArray
+    half_extents: FloatArray
+    rpy: FloatArray = field(default_factory=lambda: np.zeros(3))
+    type: ClassVar[str] = "box"
+
+    def __post_init__(self) -> None:
+        _set(self, "center", _vector(_CODE, "Box.center", self.center, 3))
+        _set(self, "half_extents", _vector(_CODE, "Box.half_extents", self.half_extents, 3, positive=True))
+        _set(self, "rpy", _vector(_CODE, "Box.rpy", self.rpy, 3))
+
+    def to_dict(self, relative_to: Path | None = None) -> dict[str, Any]:
+        return {"type": self.type, "center": self.center.tolist(),
+                "half_extents": self.half_extents.tolist(), "rpy": self.rpy.tolist()}
+
+
+@dataclass(frozen=True, eq=False)
+class Sphere(_ValueEq):
+    """Sphere at ``center`` (m) with ``radius`` (m)."""
+
+    center: FloatArray
+    radius: float
+    type: ClassVar[str] = "sphere"
+
+    def __post_init__(self) -> None:
+        _set(self, "center", _vector(_CODE, "Sphere.center", self.center, 3))
+        _set(self, "radius", _number(_CODE, "Sphere.radius", self.radius, positive=True))
+
+    def to_dict(self, relative_to: Path | None = None) -> dict[str, Any]:
+        return {"type": self.type, "center": self.center.tolist(), "radius": self.radius}
+
+
+@dataclass(frozen=True, eq=False)
+class Mesh(_ValueEq):
+    """A triangle mesh file placed at ``position`` (m) with ``rpy`` (rad), vertices scaled by ``scale``.
+
+    ``path`` is stored resolved and absolute.  The simulator treats the mesh as a static concave triangle
+    mesh (its surface; there is no notion of inside).
+    """
+
+    path: Path
+    position: FloatArray = field(default_factory=lambda: np.zeros(3))
+    rpy: FloatArray = field(default_factory=lambda: np.zeros(3))
+    scale: float = 1.0
+    type: ClassVar[str] = "mesh"
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.path, (str, os.PathLike)):
+            raise _CODE.error("Mesh.path", f"expected a path, got {_describe(self.path)}")
+        _set(self, "path", Path(self.path).expanduser().resolve())
+        _set(self, "position", _vector(_CODE, "Mesh.position", self.position, 3))
+        _set(self, "rpy", _vector(_CODE, "Mesh.rpy", self.rpy, 3))
+        _set(self, "scale", _number(_CODE, "Mesh.scale", self.scale, positive=True))
+
+    def triangles(self) -> tuple[FloatArray, NDArray[np.int32]]:
+        """Vertices (V, 3) in metres, already multiplied by ``scale``, in the mesh's own frame (before
+        ``position``/``rpy``), and faces (F, 3) of vertex indices.  Read-only arrays.
+
+        Raises:
+            WorldError: the file is missing, unreadable by trimesh, or has no triangles.
+        """
+        v, f = _mesh_triangles(_CODE, "Mesh.path", self.path)
+        if self.scale != 1.0:
+            v = v * self.scale
+            v.setflags(write=False)
+        return v, f
+
+    def to_dict(self, relative_to: Path | None = None) -> dict[str, Any]:
+        return {"type": self.type, "path": _mesh_path_str(self.path, relative_to),
+                "position": self.position.tolist(), "rpy": self.rpy.tolist(), "scale": self.scale}
+
+
+def _mesh_path_str(path: Path, relative_to: Path | None) -> str:
+    if relative_to is None:
+        return path.as_posix()
+    try:
+        return Path(os.path.relpath(path, Path(relative_to).resolve())).as_posix()
+    except ValueError:  # e.g. another drive on Windows
+        return path.as_posix()
+
+
+@lru_cache(maxsize=64)
+def _load_triangles_cached(path: str, mtime_ns: int, size: int) -> tuple[FloatArray, NDArray[np.int32]]:
+    import trimesh  # imported lazily: slow to import, and only mesh worlds need it
+
+    m = trimesh.load(path, force="mesh")
+    v = np.ascontiguousarray(np.asarray(m.vertices, dtype=np.float64))
+    f = np.ascontiguousarray(np.asarray(m.faces, dtype=np.int32))
+    v.setflags(write=False)
+    f.setflags(write=False)
+    return v, f
+
+
+def _mesh_triangles(ctx: _Ctx, path: str, file: Path) -> tuple[FloatArray, NDArray[np.int32]]:
+    try:
+        st = file.stat()
+    except OSError as e:
+        raise ctx.error(path, f"expected an existing mesh file, cannot access {file}: {e.strerror}") from e
+    if not file.is_file():
+        raise ctx.error(path, f"expected a mesh file, {file} is not a regular file")
+    try:
+        v, f = _load_triangles_cached(str(file), st.st_mtime_ns, st.st_size)
+    except Exception as e:  # trimesh raises many kinds (ValueError, NotImplementedError, KeyError, ...)
+        raise ctx.error(path, f"expected a mesh file trimesh can read, {file}: "
+                              f"{type(e).__name__}: {e}") from e
+    if len(f) == 0 or len(v) == 0:
+        raise ctx.error(path, f"expected a mesh with at least one triangle, {file} has none "
+                              f"(empty or unreadable by trimesh)")
+    if not np.all(np.isfinite(v)):
+        raise ctx.error(path, f"expected finite vertex coordinates, {file} has NaN/inf vertices")
+    return v, f
+
+
+Obstacle = Union[Cylinder, Box, Sphere, Mesh]  # noqa: UP007 - a runtime alias usable in isinstance
+"""Any obstacle kind."""
+
+OBSTACLE_TYPES: dict[str, type] = {"cylinder": Cylinder, "box": Box, "sphere": Sphere, "mesh": Mesh}
+
+
+@dataclass(frozen=True, eq=False)
+class Goal(_ValueEq):
+    """A tip waypoint at ``position`` (m), reached when the tip passes within ``tolerance`` (m)."""
+
+    position: FloatArray
+    tolerance: float = DEFAULT_TOLERANCE
+
+    def __post_init__(self) -> None:
+        _set(self, "position", _vector(_CODE, "Goal.position", self.position, 3))
+        _set(self, "tolerance", _number(_CODE, "Goal.tolerance", self.tolerance, positive=True))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"position": self.position.tolist(), "tolerance": self.tolerance}
+
+
+@dataclass(frozen=True, eq=False)
+class World(_ValueEq):
+    """One world: robot placement, static obstacles, tip goals (reached in order) and a time limit (s).
+
+    ``source`` is the file it was loaded from (absolute), if any; it does not take part in equality.
+    """
+
+    name: str
+    robot: RobotSpec
+    obstacles: tuple[Obstacle, ...]
+    goals: tuple[Goal, ...]
+    time_limit: float = DEFAULT_TIME_LIMIT
+    description: str = ""
+    family: str | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
+    source: Path | None = None
+
+    _ignore: ClassVar[tuple[str, ...]] = ("source",)
+
+    def __post_init__(self) -> None:
+        c = _CODE
+        _string(c, "World.name", self.name, nonempty=True)
+        if not isinstance(self.robot, RobotSpec):
+            raise c.error("World.robot", f"expected a RobotSpec, got {_describe(self.robot)}")
+        obstacles = tuple(self.obstacles)
+        for i, o in enumerate(obstacles):
+            if not isinstance(o, (Cylinder, Box, Sphere, Mesh)):
+                raise c.error(f"World.obstacles[{i}]", f"expected a Cylinder, Box, Sphere or Mesh, "
+                                                       f"got {_describe(o)}")
+        goals = tuple(self.goals)
+        if not goals:
+            raise c.error("World.goals", "expected at least one goal, got none")
+        for i, g in enumerate(goals):
+            if not isinstance(g, Goal):
+                raise c.error(f"World.goals[{i}]", f"expected a Goal, got {_describe(g)}")
+        _set(self, "obstacles", obstacles)
+        _set(self, "goals", goals)
+        _set(self, "time_limit", _number(c, "World.time_limit", self.time_limit, positive=True))
+        _string(c, "World.description", self.description)
+        if self.family is not None:
+            _string(c, "World.family", self.family, nonempty=True)
+        if not isinstance(self.extra, dict):
+            raise c.error("World.extra", f"expected a dict, got {_describe(self.extra)}")
+        _set(self, "extra", _json_value(c, "World.extra", self.extra))
+        if self.source is not None:
+            _set(self, "source", Path(self.source).resolve())
+
+    def to_dict(self, relative_to: str | os.PathLike[str] | None = None) -> dict[str, Any]:
+        """The world as JSON-ready data in the ``navstack-world/1`` format (inverse of
+        :func:`world_from_dict`).  Mesh paths are absolute, or relative to the folder ``relative_to``
+        when given (what :func:`save_world` writes)."""
+        rel = None if relative_to is None else Path(relative_to)
+        d: dict[str, Any] = {
+            "format": FORMAT,
+            "name": self.name,
+            "description": self.description,
+        }
+        if self.family is not None:
+            d["family"] = self.family
+        d["robot"] = self.robot.to_dict()
+        d["obstacles"] = [o.to_dict(rel) for o in self.obstacles]
+        d["goals"] = [g.to_dict() for g in self.goals]
+        d["time_limit"] = self.time_limit
+        if self.extra:
+            d["extra"] = copy.deepcopy(self.extra)
+        return d
+
+    @property
+    def goal_positions(self) -> FloatArray:
+        """(G, 3) goal positions in order (m)."""
+        return np.array([g.position for g in self.goals])
+
+
+# --------------------------------------------------------------------------- parsing
+
+
+def _parse_base(ctx: _Ctx, path: str, v: Any) -> Base:
+    o = _object(ctx, path, v, (), ("position", "rpy"))
+    pos = _vector(ctx, _join(path, "position"), o["position"], 3) if "position" in o else np.zeros(3)
+    rpy = _vector(ctx, _join(path, "rpy"), o["rpy"], 3) if "rpy" in o else np.zeros(3)
+    return Base(position=pos, rpy=rpy)
+
+
+def _parse_robot(ctx: _Ctx, path: str, v: Any) -> RobotSpec:
+    o = _object(ctx, path, v, (), ("base", "q0", "serpentine_radius", "arm_radius"))
+    base = _parse_base(ctx, _join(path, "base"), o["base"]) if "base" in o else Base()
+    q0 = _q0(ctx, _join(path, "q0"), o["q0"]) if "q0" in o else jpl.Q_DEFAULT.copy()
+    sr = (_number(ctx, _join(path, "serpentine_radius"), o["serpentine_radius"], positive=True)
+          if "serpentine_radius" in o else jpl.SERPENTINE_RADIUS)
+    ar = (_number(ctx, _join(path, "arm_radius"), o["arm_radius"], positive=True)
+          if "arm_radius" in o else jpl.ARM_RADIUS)
+    return RobotSpec(base=base, q0=q0, serpentine_radius=sr, arm_radius=ar)
+
+
+def _parse_obstacle(ctx: _Ctx, path: str, v: Any) -> Obstacle:
+    if not isinstance(v, dict):
+        raise ctx.error(path, f"expected an obstacle object, got {_describe(v)}")
+    if "type" not in v:
+        raise ctx.error(_join(path, "type"), f"missing required key (one of: {', '.join(OBSTACLE_TYPES)})")
+    kind = v["type"]
+    if not isinstance(kind, str) or kind not in OBSTACLE_TYPES:
+        names = ", ".join(map(json.dumps, OBSTACLE_TYPES))
+        raise ctx.error(_join(path, "type"), f"expected one of {names}, got {_describe(kind)}")
+
+    def vec(key: str, positive: bool = False, default: FloatArray | None = None) -> FloatArray:
+        if key not in v and default is not None:
+            return default
+        return _vector(ctx, _join(path, key), v[key], 3, positive=positive)
+
+    def num(key: str, positive: bool = True, default: float | None = None) -> float:
+        if key not in v and default is not None:
+            return default
+        return _number(ctx, _join(path, key), v[key], positive=positive)
+
+    if kind == "cylinder":
+        _object(ctx, path, v, ("type", "p0", "p1", "radius"), ())
+        p0, p1 = vec("p0"), vec("p1")
+        _check_length(ctx, _join(path, "p1"), p0, p1)
+        return Cylinder(p0=p0, p1=p1, radius=num("radius"))
+    if kind == "box":
+        _object(ctx, path, v, ("type", "center", "half_extents"), ("rpy",))
+        return Box(center=vec("center"), half_extents=vec("half_extents", positive=True),
+                   rpy=vec("rpy", default=np.zeros(3)))
+    if kind == "sphere":
+        _object(ctx, path, v, ("type", "center", "radius"), ())
+        return Sphere(center=vec("center"), radius=num("radius"))
+    # mesh
+    _object(ctx, path, v, ("type", "path"), ("position", "rpy", "scale"))
+    p = _string(ctx, _join(path, "path"), v["path"], nonempty=True)
+    file = Path(p).expanduser()
+    if not file.is_absolute():
+        file = (ctx.base_dir or Path.cwd()) / file
+    file = file.resolve()
+    _mesh_triangles(ctx, _join(path, "path"), file)
+    return Mesh(path=file, position=vec("position", default=np.zeros(3)), rpy=vec("rpy", default=np.zeros(3)),
+                scale=num("scale", default=1.0))
+
+
+def _parse_goal(ctx: _Ctx, path: str, v: Any) -> Goal:
+    o = _object(ctx, path, v, ("position",), ("tolerance",))
+    tol = (_number(ctx, _join(path, "tolerance"), o["tolerance"], positive=True)
+           if "tolerance" in o else DEFAULT_TOLERANCE)
+    return Goal(position=_vector(ctx, _join(path, "position"), o["position"], 3), tolerance=tol)
+
+
+def _array(ctx: _Ctx, path: str, v: Any) -> list | tuple:
+    if not isinstance(v, (list, tuple)):
+        raise ctx.error(path, f"expected an array, got {_describe(v)}")
+    return v
+
+
+_TOP_REQUIRED = ("format", "name", "robot", "obstacles", "goals")
+_TOP_OPTIONAL = ("description", "time_limit", "family", "extra")
+
+
+def world_from_dict(data: Any, source: str | os.PathLike[str] | None = None) -> World:
+    """Validate parsed ``navstack-world/1`` data and build a :class:`World`.
+
+    Args:
+        data: the parsed JSON document (a dict).
+        source: the file it came from: named in error messages, the folder relative mesh paths are
+            resolved against (the current directory when ``None``), and stored as ``World.source``.
+
+    Raises:
+        WorldError: the first invalid field, with its JSON path.
+    """
+    base_dir = Path(source).resolve().parent if source is not None else None
+    ctx = _Ctx(source, base_dir)
+    if not isinstance(data, dict):
+        raise ctx.error("", f"expected a JSON object at the top level, got {_describe(data)}")
+    if "format" not in data:
+        raise ctx.error("format", f'missing required key (expected "format": "{FORMAT}")')
+    if data["format"] != FORMAT:
+        raise ctx.error("format", f'expected "{FORMAT}", got {_describe(data["format"])}')
+    d = _object(ctx, "", data, _TOP_REQUIRED, _TOP_OPTIONAL)
+    name = _string(ctx, "name", d["name"], nonempty=True)
+    description = _string(ctx, "description", d["description"]) if "description" in d else ""
+    family = None
+    if d.get("family") is not None:
+        family = _string(ctx, "family", d["family"], nonempty=True)
+    robot = _parse_robot(ctx, "robot", d["robot"])
+    obstacles = tuple(_parse_obstacle(ctx, f"obstacles[{i}]", o)
+                      for i, o in enumerate(_array(ctx, "obstacles", d["obstacles"])))
+    goals_raw = _array(ctx, "goals", d["goals"])
+    if len(goals_raw) == 0:
+        raise ctx.error("goals", "expected at least one goal, got an empty array")
+    goals = tuple(_parse_goal(ctx, f"goals[{i}]", g) for i, g in enumerate(goals_raw))
+    time_limit = (_number(ctx, "time_limit", d["time_limit"], positive=True)
+                  if "time_limit" in d else DEFAULT_TIME_LIMIT)
+    extra: dict[str, Any] = {}
+    if "extra" in d:
+        if not isinstance(d["extra"], dict):
+            raise ctx.error("extra", f"expected an object, got {_describe(d['extra'])}")
+        extra = _json_value(ctx, "extra", d["extra"])
+    return World(name=name, robot=robot, obstacles=obstacles, goals=goals, time_limit=time_limit,
+                 description=description, family=family, extra=extra,
+                 source=None if source is None else Path(source).resolve())
+
+
+def load_world(path: str | os.PathLike[str]) -> World:
+    """Read, validate and return the world file at ``path`` (JSON, ``navstack-world/1``).
+
+    Mesh files are loaded with trimesh here, so a world that loads can be simulated.
+
+    Raises:
+        WorldError: unreadable file, invalid JSON (with line/column), or the first invalid field (with
+            its JSON path); the message always names the file.
+    """
+    ctx = _Ctx(path, None)
+    try:
+        text = Path(path).read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError as e:
+        raise ctx.error("", f"expected UTF-8 JSON text, cannot decode byte {e.start}: {e.reason}") from e
+    except OSError as e:
+        raise ctx.error("", f"cannot read the file: {e.strerror or e}") from e
+    try:
+        data = json.loads(text, parse_constant=_NonFinite, object_pairs_hook=_pairs_hook)
+    except json.JSONDecodeError as e:
+        raise ctx.error("", f"invalid JSON at line {e.lineno}, column {e.colno}: {e.msg}") from e
+    except RecursionError as e:
+        raise ctx.error("", "invalid JSON: nested too deeply") from e
+    return world_from_dict(data, source=path)
+
+
+def _dumps(obj: Any, indent: int = 0, width: int = 110) -> str:
+    """Pretty JSON: containers that fit on one line stay on one line."""
+    one = json.dumps(obj, allow_nan=False, separators=(", ", ": "), ensure_ascii=False)
+    if not isinstance(obj, (dict, list)) or (indent > 0 and indent + len(one) <= width) or not obj:
+        return one
+    pad = " " * (indent + 2)
+    if isinstance(obj, list) and not any(isinstance(v, (dict, list)) for v in obj):
+        # a long array of scalars (q0): several values per line
+        lines, line = [], ""
+        for s in (json.dumps(v, allow_nan=False, ensure_ascii=False) for v in obj):
+            if line and len(pad) + len(line) + len(s) + 2 > width:
+                lines.append(line.rstrip())
+                line = ""
+            line += s + ", "
+        lines.append(line[:-2])
+        return "[\n" + ",\n".join(pad + ln.rstrip(",") for ln in lines) + "\n" + " " * indent + "]"
+    if isinstance(obj, dict):
+        items = [f"{pad}{json.dumps(k, ensure_ascii=False)}: {_dumps(v, indent + 2, width)}"
+                 for k, v in obj.items()]
+        return "{\n" + ",\n".join(items) + "\n" + " " * indent + "}"
+    items = [pad + _dumps(v, indent + 2, width) for v in obj]
+    return "[\n" + ",\n".join(items) + "\n" + " " * indent + "]"
+
+
+def save_world(world: World, path: str | os.PathLike[str]) -> None:
+    """Write ``world`` to ``path`` as pretty JSON (UTF-8, trailing newline).
+
+    Mesh paths are written relative to the output file's folder (absolute only where no relative path
+    exists, e.g. another drive on Windows), so the world folder can be moved as a whole.
+    """
+    out = Path(path)
+    text = _dumps(world.to_dict(relative_to=out.resolve().parent)) + "\n"
+    out.write_text(text, encoding="utf-8")
+
+
+__all__ = [
+    "FORMAT",
+    "Base",
+    "Box",
+    "Cylinder",
+    "Goal",
+    "Mesh",
+    "OBSTACLE_TYPES",
+    "Obstacle",
+    "RobotSpec",
+    "Sphere",
+    "World",
+    "WorldError",
+    "load_world",
+    "save_world",
+    "world_from_dict",
+]

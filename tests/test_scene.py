@@ -1,0 +1,308 @@
+"""Scene: obstacles as static PyBullet bodies; clearance against analytic distances (metres)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pybullet as p
+import pytest
+import trimesh
+from pybullet_utils import bullet_client
+from scipy.spatial.transform import Rotation
+
+from navstack.sim.scene import MAX_COMPOUND_CHILDREN, Scene, SceneOptions
+from navstack.world import Box, Cylinder, Goal, Mesh, RobotSpec, Sphere, World, WorldError, load_world
+
+R_PROBE = 0.03  # radius of the test "robot" sphere (m)
+TOL = 1e-3  # m
+
+
+@pytest.fixture
+def client():
+    c = bullet_client.BulletClient(connection_mode=p.DIRECT)
+    yield c
+    c.disconnect()
+
+
+def make_probe(c, radius: float = R_PROBE, mass: float = 0.0) -> int:
+    cs = c.createCollisionShape(p.GEOM_SPHERE, radius=radius)
+    return c.createMultiBody(baseMass=mass, baseCollisionShapeIndex=cs, basePosition=[50.0, 50.0, 50.0])
+
+
+def place(c, body: int, pos) -> None:
+    c.resetBasePositionAndOrientation(body, list(map(float, pos)), [0, 0, 0, 1])
+    c.performCollisionDetection()
+
+
+def world_of(*obstacles) -> World:
+    return World(name="t", robot=RobotSpec(), obstacles=tuple(obstacles), goals=(Goal([0.0, 0.0, 3.0]),))
+
+
+# ---- analytic distances from a point to the obstacle surface (negative inside)
+
+
+def dist_cylinder(x, cyl: Cylinder) -> float:
+    axis = (cyl.p1 - cyl.p0) / cyl.length
+    mid = (cyl.p0 + cyl.p1) / 2
+    t = abs(float((x - mid) @ axis))
+    rho = float(np.linalg.norm((x - mid) - ((x - mid) @ axis) * axis))
+    dz, dr = t - cyl.length / 2, rho - cyl.radius
+    if dz <= 0 and dr <= 0:
+        return max(dz, dr)
+    return float(np.hypot(max(dz, 0.0), max(dr, 0.0)))
+
+
+def dist_box(x, center, half, rpy) -> float:
+    local = Rotation.from_euler("xyz", rpy).inv().apply(np.asarray(x) - center)
+    q = np.abs(local) - half
+    if np.all(q <= 0):
+        return float(q.max())
+    return float(np.linalg.norm(np.maximum(q, 0.0)))
+
+
+def dist_sphere(x, s: Sphere) -> float:
+    return float(np.linalg.norm(np.asarray(x) - s.center) - s.radius)
+
+
+def unit(v):
+    v = np.asarray(v, float)
+    return v / np.linalg.norm(v)
+
+
+def perpendicular(axis, rng):
+    v = np.cross(axis, rng.normal(size=3))
+    return unit(v)
+
+
+# ---- tests
+
+
+CYL = Cylinder(p0=[0.3, -0.2, 0.1], p1=[0.9, 0.4, 0.8], radius=0.05)  # oblique axis
+
+
+def test_cylinder_side_and_flat_end(client):
+    scene = Scene.build(client, world_of(CYL))
+    probe = make_probe(client)
+    rng = np.random.default_rng(1)
+    axis = unit(CYL.p1 - CYL.p0)
+    cases = []
+    for _ in range(6):  # beside the side, projection inside the ends
+        s = rng.uniform(0.1, 0.9) * CYL.length
+        cases.append(CYL.p0 + s * axis + perpendicular(axis, rng) * rng.uniform(0.09, 0.5))
+    for _ in range(4):  # beyond the flat ends, within the end disc's radius
+        off = perpendicular(axis, rng) * rng.uniform(0.0, 0.04)
+        cases.append(CYL.p1 + axis * rng.uniform(0.04, 0.4) + off)
+        cases.append(CYL.p0 - axis * rng.uniform(0.04, 0.4) + off)
+    for x in cases:
+        place(client, probe, x)
+        expected = dist_cylinder(x, CYL) - R_PROBE
+        assert 0.0 < expected < 1.0
+        assert scene.clearance(probe) == pytest.approx(expected, abs=TOL), x
+    # exact numbers, no helper: 0.2 m from the axis at mid-length; 0.1 m past p1 on the axis
+    mid = (CYL.p0 + CYL.p1) / 2
+    place(client, probe, mid + 0.2 * perpendicular(axis, rng))
+    assert scene.clearance(probe) == pytest.approx(0.2 - 0.05 - R_PROBE, abs=TOL)
+    place(client, probe, CYL.p1 + 0.1 * axis)
+    assert scene.clearance(probe) == pytest.approx(0.1 - R_PROBE, abs=TOL)
+
+
+def test_cylinder_is_flat_ended_not_a_capsule(client):
+    """Off the end, beside the rim: a capsule would be 0.05 m closer along the axis direction."""
+    cyl = Cylinder(p0=[0, 0, 0], p1=[0, 0, 1], radius=0.1)
+    scene = Scene.build(client, world_of(cyl))
+    probe = make_probe(client)
+    x = np.array([0.2, 0.0, 1.1])  # 0.1 beyond the rim radially and axially
+    place(client, probe, x)
+    assert scene.clearance(probe) == pytest.approx(np.hypot(0.1, 0.1) - R_PROBE, abs=TOL)
+    place(client, probe, [0.0, 0.0, 1.08])  # on the axis, 0.08 above the flat end
+    assert scene.clearance(probe) == pytest.approx(0.08 - R_PROBE, abs=TOL)
+
+
+def test_rotated_box(client):
+    center, half, rpy = np.array([1.0, -0.5, 0.4]), np.array([0.1, 0.25, 0.05]), np.array([0.4, -0.7, 1.1])
+    scene = Scene.build(client, world_of(Box(center=center, half_extents=half, rpy=rpy)))
+    probe = make_probe(client)
+    rot = Rotation.from_euler("xyz", rpy)
+    rng = np.random.default_rng(2)
+    pts = [center + rot.apply(half * np.array([1, 0, 0]) + [0.2, 0, 0]),  # off a face, along local x
+           center + rot.apply(half + [0.05, 0.05, 0.05])]  # off a corner
+    pts += [center + rng.uniform(-0.6, 0.6, size=3) for _ in range(8)]
+    checked = 0
+    for x in pts:
+        expected = dist_box(x, center, half, rpy) - R_PROBE
+        if not 0.0 < expected < 1.0:
+            continue
+        place(client, probe, x)
+        assert scene.clearance(probe) == pytest.approx(expected, abs=TOL), x
+        checked += 1
+    assert checked >= 6
+    place(client, probe, pts[0])
+    assert scene.clearance(probe) == pytest.approx(0.2 - R_PROBE, abs=TOL)
+
+
+def test_sphere_and_penetration(client):
+    s = Sphere(center=[0.2, 0.3, -0.4], radius=0.15)
+    scene = Scene.build(client, world_of(s))
+    probe = make_probe(client)
+    for x in ([0.2, 0.3, 0.0], [0.5, 0.5, -0.5], [0.2, 0.3 + 0.16, -0.4]):
+        place(client, probe, x)
+        assert scene.clearance(probe) == pytest.approx(dist_sphere(x, s) - R_PROBE, abs=TOL)
+    # penetration is negative: centre 0.16 m from the sphere's centre -> -0.02 m
+    place(client, probe, [0.2, 0.3 + 0.16, -0.4])
+    assert scene.clearance(probe) == pytest.approx(-0.02, abs=TOL)
+    assert scene.in_contact(probe)
+    place(client, probe, [0.2, 0.3 + 0.2, -0.4])  # 0.02 m clear
+    assert not scene.in_contact(probe)
+
+
+def write_cube_stl(path, extents=(0.4, 0.3, 0.2)):
+    trimesh.creation.box(extents=extents).export(path)
+    return path
+
+
+def test_mesh_cube(client, tmp_path):
+    stl = write_cube_stl(tmp_path / "cube.stl")
+    position, rpy, scale = np.array([0.5, 0.5, 0.5]), np.array([0.3, 0.2, -0.6]), 1.5
+    m = Mesh(path=stl, position=position, rpy=rpy, scale=scale)
+    scene = Scene.build(client, world_of(m))
+    probe = make_probe(client)
+    half = scale * np.array([0.4, 0.3, 0.2]) / 2
+    rot = Rotation.from_euler("xyz", rpy)
+    rng = np.random.default_rng(3)
+    pts = [position + rot.apply([half[0] + 0.1, 0.0, 0.0]),  # off a face
+           position + rot.apply(half + 0.04)]  # off a corner
+    pts += [position + rng.uniform(-0.7, 0.7, size=3) for _ in range(8)]
+    checked = 0
+    for x in pts:
+        expected = dist_box(x, position, half, rpy) - R_PROBE
+        if not 0.0 < expected < 1.0:
+            continue
+        place(client, probe, x)
+        assert scene.clearance(probe) == pytest.approx(expected, abs=TOL), x
+        checked += 1
+    assert checked >= 6
+    # touching the surface from outside is penetration
+    place(client, probe, position + rot.apply([half[0] + 0.01, 0.0, 0.0]))
+    assert scene.clearance(probe) == pytest.approx(0.01 - R_PROBE, abs=TOL)
+    assert scene.in_contact(probe)
+
+
+def test_mesh_concave_not_convex_hull(client, tmp_path):
+    """An L-shaped mesh: a probe in the notch is clear of it; a convex hull would swallow it."""
+    a = trimesh.creation.box(extents=[1.0, 0.2, 0.2], transform=trimesh.transformations.translation_matrix(
+        [0.5, 0.1, 0.1]))
+    b = trimesh.creation.box(extents=[0.2, 1.0, 0.2], transform=trimesh.transformations.translation_matrix(
+        [0.1, 0.5, 0.1]))
+    ell = trimesh.util.concatenate([a, b])
+    path = tmp_path / "ell.obj"
+    ell.export(path)
+    scene = Scene.build(client, world_of(Mesh(path=path)))
+    probe = make_probe(client)
+    place(client, probe, [0.6, 0.6, 0.1])  # in the notch: 0.4 from both arms' inner faces
+    assert scene.clearance(probe) == pytest.approx(0.4 - R_PROBE, abs=TOL)
+
+
+def test_many_primitives_all_present_and_combined_equals_separate(client):
+    """More primitives than one compound body holds (PyBullet drops children past 16 silently)."""
+    n = 40
+    cyls = [Cylinder(p0=[0.5 * i, 0.0, 0.0], p1=[0.5 * i, 0.0, 0.4], radius=0.02) for i in range(n)]
+    extra = [Sphere(center=[0.5 * i, 3.0, 0.0], radius=0.05) for i in range(3)]
+    extra.append(Box(center=[0.0, 5.0, 0.0], half_extents=[0.1, 0.1, 0.1]))
+    world = world_of(*cyls, *extra)
+    scene = Scene.build(client, world)
+    assert len(scene.body_ids) == -(-len(world.obstacles) // MAX_COMPOUND_CHILDREN)
+    assert len(scene.obstacle_body) == len(world.obstacles)
+    c2 = bullet_client.BulletClient(connection_mode=p.DIRECT)
+    try:
+        sep = Scene.build(c2, world, SceneOptions(combine_primitives=False))
+        assert len(sep.body_ids) == len(world.obstacles)
+        probe, probe2 = make_probe(client), make_probe(c2)
+        for i in (0, 15, 16, 17, 31, 32, 39):  # each compound chunk, incl. the boundaries
+            x = [0.5 * i + 0.1, 0.0, 0.2]
+            place(client, probe, x)
+            place(c2, probe2, x)
+            expected = 0.1 - 0.02 - R_PROBE
+            assert scene.clearance(probe) == pytest.approx(expected, abs=TOL), i
+            assert sep.clearance(probe2) == pytest.approx(expected, abs=TOL), i
+        x = [0.0, 5.3, 0.0]  # the box, last obstacle
+        place(client, probe, x)
+        assert scene.clearance(probe) == pytest.approx(0.2 - R_PROBE, abs=TOL)
+    finally:
+        c2.disconnect()
+
+
+def test_bodies_static_and_visible(client, tmp_path):
+    stl = write_cube_stl(tmp_path / "c.stl")
+    world = world_of(CYL, Box(center=[1, 1, 0], half_extents=[0.1, 0.1, 0.1]), Mesh(path=stl, position=[-1, 0, 0]))
+    scene = Scene.build(client, world)
+    for b in scene.body_ids:
+        assert client.getDynamicsInfo(b, -1)[0] == 0.0  # mass
+        assert len(client.getVisualShapeData(b)) >= 1
+    # a TinyRenderer picture shows the obstacles (non-background pixels)
+    view = client.computeViewMatrix([3, 3, 2], [0.3, 0.3, 0.2], [0, 0, 1])
+    proj = client.computeProjectionMatrixFOV(60, 1.0, 0.1, 20)
+    _, _, rgb, _, seg = client.getCameraImage(64, 64, view, proj, renderer=p.ER_TINY_RENDERER)
+    seg = np.reshape(seg, (64, 64))
+    seen = {int(v) & ((1 << 24) - 1) for v in np.unique(seg) if v >= 0}
+    assert set(scene.body_ids) <= seen
+
+
+def test_clearance_far_and_stages(client):
+    scene = Scene.build(client, world_of(Sphere(center=[0, 0, 0], radius=0.1)))
+    probe = make_probe(client)
+    place(client, probe, [0.83, 0.0, 0.0])  # 0.7 m clear: beyond every small stage
+    assert scene.clearance(probe) == pytest.approx(0.7, abs=TOL)
+    assert scene.clearance(probe, max_distance=0.5) == 0.5
+    place(client, probe, [3.0, 0.0, 0.0])
+    assert scene.clearance(probe) == 1.0
+    assert not scene.in_contact(probe)
+    with pytest.raises(ValueError, match="max_distance"):
+        scene.clearance(probe, max_distance=0.0)
+
+
+def test_empty_world_and_remove(client):
+    scene = Scene.build(client, world_of())
+    probe = make_probe(client)
+    assert scene.body_ids == ()
+    assert scene.clearance(probe, 0.3) == 0.3
+    assert not scene.in_contact(probe)
+    s2 = Scene.build(client, world_of(Sphere(center=[0, 0, 0], radius=0.1)))
+    n = client.getNumBodies()
+    s2.remove()
+    assert client.getNumBodies() == n - 1
+    assert s2.body_ids == ()
+
+
+def test_dynamic_robot_link_counts(client):
+    """A robot with mass and several links: the closest of any link counts."""
+    cs = client.createCollisionShape(p.GEOM_SPHERE, radius=R_PROBE)
+    robot = client.createMultiBody(
+        baseMass=1.0, baseCollisionShapeIndex=cs, basePosition=[0, 0, 1.0],
+        linkMasses=[1.0], linkCollisionShapeIndices=[cs], linkVisualShapeIndices=[-1],
+        linkPositions=[[0.0, 0.0, -0.5]], linkOrientations=[[0, 0, 0, 1]],
+        linkInertialFramePositions=[[0, 0, 0]], linkInertialFrameOrientations=[[0, 0, 0, 1]],
+        linkParentIndices=[0], linkJointTypes=[p.JOINT_FIXED], linkJointAxis=[[0, 0, 1]])
+    scene = Scene.build(client, world_of(Box(center=[0, 0, 0], half_extents=[1, 1, 0.1])))
+    client.performCollisionDetection()
+    # link centre at z = 0.5: 0.4 above the box top
+    assert scene.clearance(robot) == pytest.approx(0.4 - R_PROBE, abs=TOL)
+
+
+def test_missing_mesh_at_build_names_obstacle(client, tmp_path):
+    stl = write_cube_stl(tmp_path / "gone.stl")
+    world = world_of(Sphere(center=[0, 0, 0], radius=0.1), Mesh(path=stl))
+    stl.unlink()
+    with pytest.raises(WorldError, match=r"obstacles\[1\]\.path"):
+        Scene.build(client, world)
+
+
+def test_world_file_to_scene(client, tmp_path):
+    write_cube_stl(tmp_path / "cube.stl")
+    (tmp_path / "w.json").write_text("""{
+      "format": "navstack-world/1", "name": "w", "robot": {},
+      "obstacles": [{"type": "mesh", "path": "cube.stl", "position": [0, 0, 0]},
+                    {"type": "cylinder", "p0": [1, 0, 0], "p1": [1, 0, 1], "radius": 0.05}],
+      "goals": [{"position": [0, 0, 1]}]}""")
+    scene = Scene.build(client, load_world(tmp_path / "w.json"))
+    probe = make_probe(client)
+    place(client, probe, [0.0, 0.0, 0.4])  # 0.3 above the cube's top face (z = 0.1)
+    assert scene.clearance(probe) == pytest.approx(0.3 - R_PROBE, abs=TOL)
