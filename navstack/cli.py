@@ -22,7 +22,8 @@ def _summary(result) -> str:
     m = result.metrics
     return (
         f"{result.world}: {'SUCCESS' if result.success else 'FAILURE'} ({result.reason}), "
-        f"goals {result.goals_reached}, sim {result.sim_time:.2f} s in {result.steps} steps, wall {result.wall_time:.1f} s\n"
+        f"goals {result.goals_reached}, sim {result.sim_time:.2f} s in {result.steps} steps, "
+        f"wall {result.wall_time:.1f} s\n"
         f"  tip_error_max {m['tip_error_max'] * 1e3:.2f} mm, slither_deviation_max "
         f"{m['slither_deviation_max'] * 1e3:.3f} mm, min_clearance {m['min_clearance'] * 1e3:.1f} mm, "
         f"contacts {m['contacts']}"

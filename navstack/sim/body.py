@@ -140,8 +140,13 @@ class RobotBody:
             else:
                 col_ids.append(-1)
                 vis_ids.append(-1)
+        # the lathe bed: a rail along z0 over the prismatic joint's travel (visual only)
+        travel = (float(chain.lower[0]), float(chain.upper[0])) if chain.prismatic[0] else (-0.1, 0.1)
         base_vis = client.createVisualShape(
-            pybullet.GEOM_BOX, halfExtents=[0.08, 0.08, 0.08], rgbaColor=(0.3, 0.3, 0.35, 1.0)
+            pybullet.GEOM_BOX,
+            halfExtents=[0.05, 0.12, 0.5 * (travel[1] - travel[0]) + 0.1],
+            visualFramePosition=[-0.1, 0.0, 0.5 * (travel[0] + travel[1])],
+            rgbaColor=(0.3, 0.3, 0.35, 1.0),
         )
         body = client.createMultiBody(
             baseMass=0.0,
