@@ -57,7 +57,8 @@ class RaySensor:
     ) -> None:
         if not isinstance(config, SensorConfig):
             raise TypeError(f"config must be a SensorConfig, got {type(config).__name__}")
-        if robot_id is not None and (isinstance(robot_id, bool) or not isinstance(robot_id, (int, np.integer))):
+        bad_id = isinstance(robot_id, bool) or not isinstance(robot_id, (int, np.integer))
+        if robot_id is not None and bad_id:
             raise TypeError(f"robot_id must be an int body id or None, got {robot_id!r}")
         if rng is not None and not isinstance(rng, np.random.Generator):
             raise TypeError(f"rng must be a numpy.random.Generator or None, got {type(rng).__name__}")

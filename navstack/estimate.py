@@ -1,0 +1,274 @@
+"""Range estimation: one small Kalman filter (``filterpy.kalman.KalmanFilter``) per ray.
+
+Design decision: **per ray**, not per sector.  The tip sensor has a few dozen
+thin rays and the obstacles of an inspection world are thin (truss members of
+radius ~0.02 m): averaging rays over a sector would smear a member over the
+sector and shift its apparent position, while a per-ray filter keeps every
+ray's geometry exact and only removes range noise.  The rays are independent,
+so R two-state filters cost the same as one 2R-state filter with a block
+diagonal structure and are much simpler to reset one at a time.
+
+Model of ray ``i`` (state ``x = [r, b]``: range [m] and the part of the range
+rate not explained by the tip's own motion [m/s]):
+
+    r_{k+1} = r_k + dt (u_k + b_k),   u_k = -v_tip . d_i   (input: the tip's velocity)
+    b_{k+1} = b_k + w                  (random walk: Q_discrete_white_noise)
+    z_k     = r_k + noise              (measurement std ``measurement_std``)
+
+``u`` is the exact range rate for an obstacle point straight along the ray;
+``b`` absorbs the rest (surface slope as the ray slides along it, the tip's
+rotation).  So ``F = [[1, dt], [0, 1]]``, ``B = [[dt], [0]]``, ``H = [[1, 0]]``.
+The tip velocity comes from the caller, or from the displacement of the
+reading's origin between readings.
+
+Measured limitation: on a wall seen obliquely by a tip that also turns, most
+of a ray's range rate comes from the hit point sliding along the surface
+(which needs the unknown surface normal and the tip's rotation), so the input
+``-v . d`` helps little there and ``b`` does the work; the input matters for
+surfaces facing the ray and at track starts.  With 5 mm noise on such a wall
+(tests/test_estimate.py) the filtered RMS error is about 0.6 of the raw one.
+
+Track management, per ray and per reading:
+
+* a ray that hits while not tracked **starts** a track: ``x = [z, 0]``,
+  ``P = diag(measurement_std^2, initial_rate_std^2)``;
+* a tracked ray that hits again is predicted then updated, unless the
+  innovation exceeds ``gate_sigma`` standard deviations, in which case the
+  ray jumped to another surface (an edge) and the track is **reset** to the
+  measurement;
+* a tracked ray that reports a miss (valid, no hit) **stops** its track: it
+  now sees free space to its maximum range;
+* a dropout (``valid = False``) is **predicted only** (coasting); after
+  ``max_coast`` consecutive dropouts the track is dropped.
+
+The output (:class:`RangeEstimate`) gives the filtered range of every tracked
+ray (``NaN`` elsewhere) and the corresponding world-frame obstacle points.
+Nothing here reads obstacle geometry: only sensor readings and the tip's
+velocity.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from filterpy.common import Q_discrete_white_noise
+from filterpy.kalman import KalmanFilter
+from numpy.typing import ArrayLike, NDArray
+
+from navstack.sensing import SensorConfig, SensorReading
+
+__all__ = ["EstimatorConfig", "RangeEstimate", "RangeEstimator"]
+
+
+@dataclass(frozen=True)
+class EstimatorConfig:
+    """Parameters of the per-ray range filters (metres, seconds).
+
+    Attributes:
+        measurement_std: assumed range noise std [m] (use the sensor's ``noise_std``;
+            a floor of 1e-4 m is applied so exact sensors still give a proper filter).
+        rate_process_std: white-noise intensity driving the rate state b [m/s^2].
+        initial_rate_std: prior std of b when a track starts [m/s].
+        gate_sigma: innovation gate in standard deviations; beyond it the track resets.
+        max_coast: consecutive dropouts a track survives by prediction alone.
+    """
+
+    measurement_std: float = 0.004
+    rate_process_std: float = 0.1
+    initial_rate_std: float = 0.05
+    gate_sigma: float = 4.0
+    max_coast: int = 5
+
+    def __post_init__(self) -> None:
+        for name in ("measurement_std", "rate_process_std", "initial_rate_std", "gate_sigma"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)):
+                raise ValueError(f"EstimatorConfig.{name} must be a number, got {v!r}")
+            if not np.isfinite(v) or v < 0:
+                raise ValueError(f"EstimatorConfig.{name} must be finite and >= 0, got {v}")
+        if self.gate_sigma <= 0:
+            raise ValueError(f"EstimatorConfig.gate_sigma must be > 0, got {self.gate_sigma}")
+        if isinstance(self.max_coast, bool) or not isinstance(self.max_coast, (int, np.integer)):
+            raise ValueError(f"EstimatorConfig.max_coast must be an integer, got {self.max_coast!r}")
+        if self.max_coast < 0:
+            raise ValueError(f"EstimatorConfig.max_coast must be >= 0, got {self.max_coast}")
+
+
+@dataclass(frozen=True)
+class RangeEstimate:
+    """Filtered ranges of one reading.
+
+    Attributes:
+        origins: (R, 3) ray origins of the reading [m] (world).
+        directions: (R, 3) unit ray directions (world).
+        ranges: (R,) filtered range [m] of tracked rays, ``NaN`` for untracked ones.
+        rates: (R,) estimated unexplained range rate b [m/s] (``NaN`` if untracked).
+        tracking: (R,) True where the ray currently tracks an obstacle (coasting included).
+        measured: (R,) True where the track was updated by a hit in this very reading
+            (False for coasting tracks, which are predictions only).
+        range_std: (R,) posterior standard deviation of the range [m] (``NaN`` if untracked).
+    """
+
+    origins: NDArray[np.float64]
+    directions: NDArray[np.float64]
+    ranges: NDArray[np.float64]
+    rates: NDArray[np.float64]
+    tracking: NDArray[np.bool_]
+    measured: NDArray[np.bool_]
+    range_std: NDArray[np.float64]
+
+    @property
+    def points(self) -> NDArray[np.float64]:
+        """World positions (K, 3) [m] of the filtered obstacle points (tracked rays)."""
+        m = self.tracking
+        return self.origins[m] + self.ranges[m, None] * self.directions[m]
+
+    @property
+    def measured_points(self) -> NDArray[np.float64]:
+        """World positions [m] of the filtered points of rays that hit in this reading."""
+        m = self.measured
+        return self.origins[m] + self.ranges[m, None] * self.directions[m]
+
+
+class RangeEstimator:
+    """Per-ray constant-rate Kalman filters with the tip's velocity as input.
+
+    Args:
+        sensor: the sensor's :class:`SensorConfig` (its ray count, and its
+            ``noise_std`` as the measurement noise when ``config`` is None), or
+            just the number of rays R of the readings that will be passed in.
+        config: filter parameters (``None`` = defaults).
+    """
+
+    _H = np.array([[1.0, 0.0]])
+
+    def __init__(self, sensor: SensorConfig | int, config: EstimatorConfig | None = None) -> None:
+        if isinstance(sensor, SensorConfig):
+            n_rays = sensor.n_rays
+            if config is None:
+                config = EstimatorConfig(measurement_std=sensor.noise_std)
+        elif isinstance(sensor, (int, np.integer)) and not isinstance(sensor, bool):
+            n_rays = int(sensor)
+        else:
+            raise TypeError(f"sensor must be a SensorConfig or a number of rays, got {type(sensor).__name__}")
+        if n_rays < 1:
+            raise ValueError(f"the number of rays must be >= 1, got {n_rays}")
+        if config is None:
+            config = EstimatorConfig()
+        if not isinstance(config, EstimatorConfig):
+            raise TypeError(f"config must be an EstimatorConfig, got {type(config).__name__}")
+        self.n_rays = int(n_rays)
+        self.config = config
+        self._std = max(config.measurement_std, 1e-4)
+        self._R = np.array([[self._std**2]])
+        self._P0 = np.diag([self._std**2, config.initial_rate_std**2 + 1e-12])
+        self._filters = []
+        for _ in range(self.n_rays):
+            kf = KalmanFilter(dim_x=2, dim_z=1, dim_u=1)
+            kf.H = self._H.copy()
+            kf.R = self._R.copy()
+            self._filters.append(kf)
+        self.tracking = np.zeros(self.n_rays, dtype=np.bool_)
+        self._coast = np.zeros(self.n_rays, dtype=np.int64)
+        self._last_origin: NDArray[np.float64] | None = None
+        self.n_resets = 0
+        """Number of innovation-gate resets so far (edges, jumps between surfaces)."""
+
+    def reset(self) -> None:
+        """Forget every track."""
+        self.tracking[:] = False
+        self._coast[:] = 0
+        self._last_origin = None
+
+    def _start(self, i: int, z: float) -> None:
+        kf = self._filters[i]
+        kf.x = np.array([[z], [0.0]])
+        kf.P = self._P0.copy()
+        self.tracking[i] = True
+        self._coast[i] = 0
+
+    def update(
+        self, reading: SensorReading, dt: float, tip_velocity: ArrayLike | None = None
+    ) -> RangeEstimate:
+        """Fuse one reading.
+
+        Args:
+            reading: the new sensor reading (R rays).
+            dt: time since the previous reading [s], > 0.
+            tip_velocity: (3,) the tip's velocity [m/s] over that interval (world
+                frame), the filters' input; ``None`` = the displacement of the
+                reading's origin since the previous reading divided by ``dt``
+                (zero for the first reading).
+
+        Returns:
+            The filtered ranges and obstacle points after this reading.
+        """
+        if not isinstance(reading, SensorReading):
+            raise TypeError(f"reading must be a SensorReading, got {type(reading).__name__}")
+        if reading.n_rays != self.n_rays:
+            raise ValueError(f"reading has {reading.n_rays} rays, the estimator was built for {self.n_rays}")
+        if isinstance(dt, bool) or not isinstance(dt, (int, float, np.floating)) or not np.isfinite(dt) \
+                or dt <= 0:
+            raise ValueError(f"dt must be a positive number of seconds, got {dt!r}")
+        origin = np.array(reading.origins[0])
+        if tip_velocity is None:
+            v = np.zeros(3) if self._last_origin is None else (origin - self._last_origin) / dt
+        else:
+            v = np.asarray(tip_velocity, dtype=np.float64)
+            if v.shape != (3,) or not np.all(np.isfinite(v)):
+                raise ValueError(f"tip_velocity must be 3 finite numbers [m/s], got {tip_velocity!r}")
+        self._last_origin = origin
+        cfg = self.config
+        F = np.array([[1.0, dt], [0.0, 1.0]])
+        B = np.array([[dt], [0.0]])
+        Q = Q_discrete_white_noise(dim=2, dt=dt, var=cfg.rate_process_std**2)
+        u_all = -(reading.directions @ v)
+        gate2 = cfg.gate_sigma**2
+        measured = np.zeros(self.n_rays, dtype=np.bool_)
+        for i in range(self.n_rays):
+            valid = bool(reading.valid[i])
+            hit = bool(reading.hit[i])
+            measured[i] = hit
+            if not self.tracking[i]:
+                if hit:
+                    self._start(i, float(reading.ranges[i]))
+                continue
+            if valid and not hit:
+                self.tracking[i] = False
+                continue
+            kf = self._filters[i]
+            kf.predict(u=np.array([[u_all[i]]]), B=B, F=F, Q=Q)
+            if kf.x[0, 0] < 0.0:
+                kf.x[0, 0] = 0.0
+            if not valid:
+                self._coast[i] += 1
+                if self._coast[i] > cfg.max_coast:
+                    self.tracking[i] = False
+                continue
+            z = float(reading.ranges[i])
+            innovation = z - kf.x[0, 0]
+            s = kf.P[0, 0] + self._R[0, 0]
+            if innovation * innovation > gate2 * s:
+                self.n_resets += 1
+                self._start(i, z)
+                continue
+            kf.update(z)
+            self._coast[i] = 0
+        ranges = np.full(self.n_rays, np.nan)
+        rates = np.full(self.n_rays, np.nan)
+        std = np.full(self.n_rays, np.nan)
+        for i in np.flatnonzero(self.tracking):
+            kf = self._filters[i]
+            ranges[i] = kf.x[0, 0]
+            rates[i] = kf.x[1, 0]
+            std[i] = np.sqrt(max(kf.P[0, 0], 0.0))
+        return RangeEstimate(
+            origins=np.array(reading.origins),
+            directions=np.array(reading.directions),
+            ranges=ranges,
+            rates=rates,
+            tracking=self.tracking.copy(),
+            measured=measured & self.tracking,
+            range_std=std,
+        )

@@ -1,0 +1,520 @@
+"""Success-rate reports of a trial sweep (``navstack report DIR``, interfaces.md section 4).
+
+Reads ``DIR/results.jsonl`` (written by :mod:`navstack.sweep` or by hand: one ``result.json`` object per line,
+optionally with ``trial_id``, ``family`` and ``difficulty``) and writes ``DIR/report.md`` with PNG plots in
+``DIR/plots/``:
+
+* success rate with a 95 % Wilson score interval per method (controller and planner), per family with the
+  methods side by side, and per family x difficulty x method;
+* failure causes: counts of ``reason`` among unsuccessful trials, per method;
+* distributions (n, min, p10, median, p90, max, mean) of ``metrics.min_clearance`` (m) and
+  ``metrics.slither_deviation_max`` (m) over all trials that report them, and of time to goal
+  (``sim_time``, s) over successful trials.
+
+Conventions: a trial counts as a success only if ``success`` is ``true``; trials with ``reason: "error"``
+(the trial itself crashed or hung) count as failures and the report says how many there were. A record
+without ``family`` is grouped under ``(none)``; one without ``difficulty`` under ``-``. A final line cut
+short by a killed sweep (no newline, not JSON) is ignored with a note in the report, as
+:func:`navstack.sweep.read_results` does; any other malformed line, an unknown ``reason``, a missing or
+mistyped field, or a repeated ``trial_id`` is a :class:`ReportError` naming the file and line.
+
+The plots use matplotlib's object API (:class:`matplotlib.figure.Figure` rendered by Agg), so no global
+backend is changed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+Z95 = 1.959963984540054
+"""Two-sided 95 % standard-normal quantile."""
+
+REASONS: tuple[str, ...] = ("reached", "collision", "timeout", "stalled", "joint_limit", "error")
+NO_FAMILY = "(none)"
+METRICS: tuple[tuple[str, str, str], ...] = (
+    ("min_clearance", "Minimum clearance (m), all trials", "min_clearance.png"),
+    ("slither_deviation_max", "Slithering deviation (m), all trials", "slither_deviation.png"),
+    ("time_to_goal", "Time to goal (s, simulated), successful trials", "time_to_goal.png"),
+)
+PLOTS_DIR = "plots"
+
+
+class ReportError(ValueError):
+    """Unusable results (message names the file and line, or the record index)."""
+
+
+def wilson_interval(successes: int, n: int, z: float = Z95) -> tuple[float, float]:
+    """Wilson score interval for ``successes`` out of ``n`` Bernoulli trials (default 95 %).
+
+    ``(p + z^2/2n -+ z sqrt(p(1-p)/n + z^2/4n^2)) / (1 + z^2/n)`` with ``p = successes / n``; unlike the
+    normal approximation it stays inside [0, 1] and is not degenerate at 0/n or n/n.
+    Raises ValueError unless ``0 <= successes <= n`` and ``n >= 1``.
+    """
+    if isinstance(successes, bool) or isinstance(n, bool) or int(successes) != successes or int(n) != n:
+        raise ValueError(f"wilson_interval: integer counts expected, got successes={successes!r}, n={n!r}")
+    if n < 1 or not 0 <= successes <= n:
+        raise ValueError(f"wilson_interval: need n >= 1 and 0 <= successes <= n, got {successes}/{n}")
+    p = successes / n
+    z2 = z * z
+    denom = 1.0 + z2 / n
+    center = (p + z2 / (2 * n)) / denom
+    half = z * math.sqrt(p * (1 - p) / n + z2 / (4 * n * n)) / denom
+    lo, hi = center - half, center + half
+    # exact at the ends (rounding would otherwise leave 1e-17 off 0 or 1)
+    return (0.0 if successes == 0 else max(0.0, lo), 1.0 if successes == n else min(1.0, hi))
+
+
+@dataclass(frozen=True)
+class Rate:
+    """``successes`` of ``n`` trials, their ratio and 95 % Wilson interval."""
+
+    n: int
+    successes: int
+    rate: float
+    ci_low: float
+    ci_high: float
+
+    @classmethod
+    def of(cls, successes: int, n: int) -> Rate:
+        lo, hi = wilson_interval(successes, n)
+        return cls(n=n, successes=successes, rate=successes / n, ci_low=lo, ci_high=hi)
+
+
+@dataclass(frozen=True)
+class Stats:
+    """Order statistics of one metric (same unit as the metric); NaN fields when ``n == 0``."""
+
+    n: int
+    min: float
+    p10: float
+    median: float
+    p90: float
+    max: float
+    mean: float
+
+    @classmethod
+    def of(cls, values: Sequence[float]) -> Stats:
+        if not values:
+            nan = float("nan")
+            return cls(0, nan, nan, nan, nan, nan, nan)
+        a = np.asarray(values, dtype=float)
+        p10, med, p90 = np.percentile(a, [10, 50, 90])
+        return cls(len(a), float(a.min()), float(p10), float(med), float(p90), float(a.max()), float(a.mean()))
+
+
+@dataclass(frozen=True)
+class Summary:
+    """Everything the report shows; keys are plain strings / floats so it is easy to test.
+
+    ``methods`` are ``(controller, planner)`` pairs; ``by_cell`` is keyed by ``(family, difficulty, method)``;
+    ``reasons[method][reason]`` counts unsuccessful trials; ``values[metric][method]`` are the sorted metric
+    values (``metric`` in ``min_clearance``, ``slither_deviation_max``, ``time_to_goal``).
+    """
+
+    n_trials: int
+    methods: tuple[tuple[str, str], ...]
+    families: tuple[str, ...]
+    difficulties: tuple[float | None, ...]
+    by_method: dict[tuple[str, str], Rate]
+    by_family: dict[tuple[str, tuple[str, str]], Rate]
+    by_cell: dict[tuple[str, float | None, tuple[str, str]], Rate]
+    reasons: dict[tuple[str, str], dict[str, int]]
+    values: dict[str, dict[tuple[str, str], tuple[float, ...]]]
+    errors: int
+
+    def stats(self, metric: str, method: tuple[str, str]) -> Stats:
+        """:class:`Stats` of ``metric`` for ``method``."""
+        return Stats.of(self.values[metric].get(method, ()))
+
+
+def _is_number(x: Any) -> bool:
+    return isinstance(x, int | float) and not isinstance(x, bool)
+
+
+def _check_record(rec: Any) -> str | None:
+    """Why ``rec`` cannot be summarised, or None."""
+    if not isinstance(rec, Mapping):
+        return f"expected a JSON object, got {type(rec).__name__}"
+    for key in ("controller", "planner", "reason"):
+        if not isinstance(rec.get(key), str) or not rec.get(key):
+            return f"field '{key}' must be a non-empty string, got {rec.get(key)!r}"
+    if not isinstance(rec.get("success"), bool):
+        return f"field 'success' must be true or false, got {rec.get('success')!r}"
+    if rec["reason"] not in REASONS:
+        return f"field 'reason' is {rec['reason']!r}, expected one of {list(REASONS)}"
+    if rec["success"] and rec["reason"] != "reached":
+        return f"field 'reason' is {rec['reason']!r} but 'success' is true"
+    fam = rec.get("family")
+    if fam is not None and not isinstance(fam, str):
+        return f"field 'family' must be a string or null, got {fam!r}"
+    for key in ("difficulty", "sim_time"):
+        v = rec.get(key)
+        if v is not None and not (_is_number(v) and math.isfinite(v)):
+            return f"field '{key}' must be a finite number or null, got {v!r}"
+    metrics = rec.get("metrics")
+    if metrics is not None:
+        if not isinstance(metrics, Mapping):
+            return f"field 'metrics' must be an object, got {metrics!r}"
+        for key in ("min_clearance", "slither_deviation_max"):
+            v = metrics.get(key)
+            if v is not None and not (_is_number(v) and math.isfinite(v)):
+                return f"field 'metrics.{key}' must be a finite number or null, got {v!r}"
+    tid = rec.get("trial_id")
+    if tid is not None and not isinstance(tid, str):
+        return f"field 'trial_id' must be a string, got {tid!r}"
+    return None
+
+
+def _diff_key(d: float | None) -> tuple[bool, float]:
+    return (d is None, 0.0 if d is None else d)
+
+
+def _fam_key(f: str) -> tuple[bool, str]:
+    return (f == NO_FAMILY, f)
+
+
+def summarize(records: Iterable[Mapping[str, Any]]) -> Summary:
+    """Success rates, failure causes and metric distributions of result records (pure; see module doc).
+
+    Raises :class:`ReportError` naming the record index (0-based) for an invalid record or a repeated
+    ``trial_id``, and for no records at all.
+    """
+    records = list(records)
+    if not records:
+        raise ReportError("no trial results to summarise")
+    seen: set[str] = set()
+    for i, rec in enumerate(records):
+        why = _check_record(rec)
+        if why is not None:
+            raise ReportError(f"record {i}: {why}")
+        tid = rec.get("trial_id")
+        if tid is not None:
+            if tid in seen:
+                raise ReportError(f"record {i}: trial_id {tid!r} appears twice")
+            seen.add(tid)
+
+    def method(r: Mapping[str, Any]) -> tuple[str, str]:
+        return (r["controller"], r["planner"])
+
+    def family(r: Mapping[str, Any]) -> str:
+        return r.get("family") or NO_FAMILY
+
+    methods = tuple(sorted({method(r) for r in records}))
+    families = tuple(sorted({family(r) for r in records}, key=_fam_key))
+    difficulties = tuple(sorted({r.get("difficulty") for r in records}, key=_diff_key))
+
+    def tally(keyf: Any) -> dict[Any, Rate]:
+        counts: dict[Any, list[int]] = {}
+        for r in records:
+            c = counts.setdefault(keyf(r), [0, 0])
+            c[0] += r["success"] is True
+            c[1] += 1
+        return {k: Rate.of(s, n) for k, (s, n) in counts.items()}
+
+    by_method = tally(method)
+    by_family = tally(lambda r: (family(r), method(r)))
+    by_cell = tally(lambda r: (family(r), r.get("difficulty"), method(r)))
+    reasons: dict[tuple[str, str], dict[str, int]] = {m: {} for m in methods}
+    for r in records:
+        if not r["success"]:
+            d = reasons[method(r)]
+            d[r["reason"]] = d.get(r["reason"], 0) + 1
+    values: dict[str, dict[tuple[str, str], list[float]]] = {m[0]: {} for m in METRICS}
+    for r in records:
+        met = r.get("metrics") or {}
+        for key in ("min_clearance", "slither_deviation_max"):
+            if met.get(key) is not None:
+                values[key].setdefault(method(r), []).append(float(met[key]))
+        if r["success"] and r.get("sim_time") is not None:
+            values["time_to_goal"].setdefault(method(r), []).append(float(r["sim_time"]))
+    return Summary(
+        n_trials=len(records), methods=methods, families=families, difficulties=difficulties,
+        by_method=by_method, by_family=by_family,
+        by_cell={k: by_cell[k] for k in sorted(by_cell, key=lambda k: (_fam_key(k[0]), _diff_key(k[1]), k[2]))},
+        reasons=reasons,
+        values={k: {m: tuple(sorted(v)) for m, v in d.items()} for k, d in values.items()},
+        errors=sum(1 for r in records if r["reason"] == "error"),
+    )
+
+
+# --------------------------------------------------------------------------------------------------------
+# Reading
+# --------------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Loaded:
+    """Records of a results file, their 1-based line numbers, and whether a cut-off last line was ignored."""
+
+    path: Path
+    records: list[dict[str, Any]]
+    line_numbers: list[int]
+    truncated_tail: bool
+
+
+def load_results(path: str | Path) -> Loaded:
+    """Read and check ``results.jsonl``; :class:`ReportError` names the file and line of the first problem."""
+    from navstack.sweep import SweepError, read_results
+
+    path = Path(path)
+    if not path.is_file():
+        raise ReportError(f"{path}: no such results file (run `navstack trials ... --out DIR` first)")
+    try:
+        rf = read_results(path)
+    except SweepError as exc:
+        raise ReportError(str(exc)) from exc
+    if not rf.records:
+        raise ReportError(f"{path}: no trial results in the file (it is empty)")
+    seen: dict[str, int] = {}
+    for rec, line in zip(rf.records, rf.line_numbers, strict=True):
+        why = _check_record(rec)
+        if why is not None:
+            raise ReportError(f"{path}, line {line}: {why}")
+        tid = rec.get("trial_id")
+        if tid is not None:
+            if tid in seen:
+                raise ReportError(f"{path}, line {line}: trial_id {tid!r} already on line {seen[tid]}")
+            seen[tid] = line
+    return Loaded(path, rf.records, rf.line_numbers, rf.truncated_tail)
+
+
+# --------------------------------------------------------------------------------------------------------
+# Markdown
+# --------------------------------------------------------------------------------------------------------
+
+
+def method_label(m: tuple[str, str]) -> str:
+    """``"controller/planner"``."""
+    return f"{m[0]}/{m[1]}"
+
+
+def _fmt_diff(d: float | None) -> str:
+    return "-" if d is None else f"{d:g}"
+
+
+def _fmt(x: float, digits: int = 4) -> str:
+    return "-" if math.isnan(x) else f"{x:.{digits}g}"
+
+
+def _table(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> list[str]:
+    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    out += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    return out
+
+
+def _rate_cells(r: Rate) -> list[str]:
+    return [str(r.n), str(r.successes), f"{r.rate:.3f}", f"{r.ci_low:.3f}", f"{r.ci_high:.3f}"]
+
+
+RATE_HEADER = ["trials", "successes", "success rate", "95 % CI low", "95 % CI high"]
+
+
+def render_markdown(s: Summary, *, source: str = "results.jsonl", plots: Sequence[str] = (),
+                    truncated_tail: bool = False) -> str:
+    """The report as Markdown; ``plots`` are the PNG paths (relative to the report) to embed."""
+    lines = ["# navstack trial report", ""]
+    lines.append(
+        f"Source: `{source}`, {s.n_trials} trials; {len(s.methods)} method(s) (controller/planner), "
+        f"{len(s.families)} world familie(s), {len(s.difficulties)} difficulty level(s). A success is every "
+        "goal reached in order, with no contact, within the world's time limit. Intervals are 95 % Wilson "
+        f"score intervals. Trials ending in `error` (the trial crashed or exceeded its wall-clock limit: "
+        f"{s.errors} here) count as failures.")
+    if truncated_tail:
+        lines += ["", "Note: the last line of the results file was cut short (a killed sweep) and is ignored; "
+                  "resume the sweep to rerun that trial."]
+    plot_of = {Path(p).name: p for p in plots}
+
+    lines += ["", "## Success rate per controller", ""]
+    lines += _table(["controller", "planner", *RATE_HEADER],
+                    ([m[0], m[1], *_rate_cells(s.by_method[m])] for m in s.methods))
+
+    lines += ["", "## Success rate per family (controllers side by side)", "",
+              "Each cell: success rate (successes/trials) [95 % CI].", ""]
+    rows = []
+    for fam in s.families:
+        row = [fam]
+        for m in s.methods:
+            r = s.by_family.get((fam, m))
+            row.append("-" if r is None else
+                       f"{r.rate:.3f} ({r.successes}/{r.n}) [{r.ci_low:.3f}, {r.ci_high:.3f}]")
+        rows.append(row)
+    lines += _table(["family", *(method_label(m) for m in s.methods)], rows)
+    for name, alt in (("success_rate.png", "Success rate per family"),
+                      ("success_vs_difficulty.png", "Success rate against difficulty")):
+        if name in plot_of:
+            lines += ["", f"![{alt}]({plot_of[name]})"]
+
+    lines += ["", "## Success rate per family, difficulty and controller", ""]
+    lines += _table(["family", "difficulty", "controller", "planner", *RATE_HEADER],
+                    ([f, _fmt_diff(d), m[0], m[1], *_rate_cells(r)] for (f, d, m), r in s.by_cell.items()))
+
+    lines += ["", "## Failure causes", "", "Counts of `reason` among unsuccessful trials.", ""]
+    seen = sorted({k for d in s.reasons.values() for k in d}, key=REASONS.index)
+    rows = [[reason, *(s.reasons[m].get(reason, 0) for m in s.methods)] for reason in seen]
+    rows.append(["all failures", *(sum(s.reasons[m].values()) for m in s.methods)])
+    lines += _table(["reason", *(method_label(m) for m in s.methods)], rows)
+    if "failure_causes.png" in plot_of:
+        lines += ["", f"![Failure causes]({plot_of['failure_causes.png']})"]
+
+    lines += ["", "## Distributions"]
+    for metric, title, png in METRICS:
+        lines += ["", f"### {title}", ""]
+        lines += _table(["controller", "planner", "n", "min", "p10", "median", "p90", "max", "mean"],
+                        ([m[0], m[1], st.n, *(_fmt(x) for x in (st.min, st.p10, st.median, st.p90, st.max,
+                                                                 st.mean))]
+                         for m in s.methods for st in [s.stats(metric, m)]))
+        if png in plot_of:
+            lines += ["", f"![{title}]({plot_of[png]})"]
+    return "\n".join(lines) + "\n"
+
+
+# --------------------------------------------------------------------------------------------------------
+# Plots
+# --------------------------------------------------------------------------------------------------------
+
+
+def _figure(width: float = 7.0, height: float = 4.0) -> Any:
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=(width, height), layout="constrained")
+
+
+def write_plots(s: Summary, folder: Path) -> list[Path]:
+    """Write the PNG plots of ``s`` into ``folder``; returns their paths."""
+    folder.mkdir(parents=True, exist_ok=True)
+    paths: list[Path] = []
+    labels = [method_label(m) for m in s.methods]
+    k = len(s.methods)
+    width = 0.8 / max(k, 1)
+
+    fig = _figure(max(6.0, 1.2 * (len(s.families) + 1) * max(k, 1) * 0.6 + 3))
+    ax = fig.add_subplot()
+    groups = [*s.families, "all"]
+    for j, m in enumerate(s.methods):
+        rates = [s.by_family[(f, m)] if (f, m) in s.by_family else None for f in s.families] + [s.by_method[m]]
+        x = np.arange(len(groups)) + (j - (k - 1) / 2) * width
+        y = np.array([r.rate if r else np.nan for r in rates])
+        err = np.array([[r.rate - r.ci_low, r.ci_high - r.rate] if r else [0, 0] for r in rates]).T
+        ax.bar(x, y, width, yerr=err, capsize=3, label=labels[j])
+    ax.set_xticks(np.arange(len(groups)), groups)
+    ax.set_ylim(0, 1.05)
+    ax.set_ylabel("success rate (95 % Wilson CI)")
+    ax.legend(fontsize="small")
+    paths.append(folder / "success_rate.png")
+    fig.savefig(paths[-1], dpi=110)
+
+    diffs = [d for d in s.difficulties if d is not None]
+    fams = [f for f in s.families if any((f, d, m) in s.by_cell for d in diffs for m in s.methods)]
+    if len(diffs) > 1 and fams:
+        fig = _figure(4.0 * len(fams), 3.5)
+        axes = fig.subplots(1, len(fams), squeeze=False)[0]
+        for ax, fam in zip(axes, fams, strict=True):
+            for j, m in enumerate(s.methods):
+                pts = [(d, s.by_cell[(fam, d, m)]) for d in diffs if (fam, d, m) in s.by_cell]
+                if not pts:
+                    continue
+                x = np.array([d for d, _ in pts])
+                y = np.array([r.rate for _, r in pts])
+                err = np.array([[r.rate - r.ci_low, r.ci_high - r.rate] for _, r in pts]).T
+                ax.errorbar(x + (j - (k - 1) / 2) * 0.005, y, yerr=err, marker="o", capsize=3, label=labels[j])
+            ax.set_title(fam)
+            ax.set_xlabel("difficulty")
+            ax.set_ylim(-0.02, 1.05)
+        axes[0].set_ylabel("success rate")
+        axes[0].legend(fontsize="small")
+        paths.append(folder / "success_vs_difficulty.png")
+        fig.savefig(paths[-1], dpi=110)
+
+    fig = _figure(max(5.0, 1.5 * k + 2))
+    ax = fig.add_subplot()
+    bottom = np.zeros(k)
+    for reason in REASONS:
+        counts = np.array([s.reasons[m].get(reason, 0) for m in s.methods], dtype=float)
+        if counts.any():
+            ax.bar(np.arange(k), counts, 0.6, bottom=bottom, label=reason)
+            bottom += counts
+    ax.set_xticks(np.arange(k), labels)
+    ax.set_ylabel("unsuccessful trials")
+    if bottom.any():
+        ax.legend(fontsize="small")
+    else:
+        ax.text(0.5, 0.5, "no failures", ha="center", va="center", transform=ax.transAxes)
+    paths.append(folder / "failure_causes.png")
+    fig.savefig(paths[-1], dpi=110)
+
+    for metric, title, png in METRICS:
+        fig = _figure(max(5.0, 1.5 * k + 2))
+        ax = fig.add_subplot()
+        data = [(i, s.values[metric].get(m, ())) for i, m in enumerate(s.methods)]
+        data = [(i, v) for i, v in data if v]
+        if data:
+            ax.boxplot([list(v) for _, v in data], positions=[i for i, _ in data], widths=0.5)
+        else:
+            ax.text(0.5, 0.5, "no data", ha="center", va="center", transform=ax.transAxes)
+        if metric == "min_clearance":
+            ax.axhline(0.0, color="red", lw=0.8, ls="--")
+        ax.set_xticks(np.arange(k), labels)
+        ax.set_xlim(-0.6, k - 0.4)
+        ax.set_title(title)
+        paths.append(folder / png)
+        fig.savefig(paths[-1], dpi=110)
+    return paths
+
+
+def write_report(directory: str | Path, *, plots: bool = True) -> Path:
+    """Summarise ``directory/results.jsonl`` into ``directory/report.md`` (+ ``directory/plots/*.png``).
+
+    Returns the path of ``report.md``. Raises :class:`ReportError` (file and line) for unusable results.
+    """
+    directory = Path(directory)
+    if not directory.is_dir():
+        raise ReportError(f"{directory}: not a directory")
+    loaded = load_results(directory / "results.jsonl")
+    summary = summarize(loaded.records)
+    pngs = write_plots(summary, directory / PLOTS_DIR) if plots else []
+    text = render_markdown(summary, plots=[f"{PLOTS_DIR}/{p.name}" for p in pngs],
+                           truncated_tail=loaded.truncated_tail)
+    out = directory / "report.md"
+    out.write_text(text, encoding="utf-8")
+    return out
+
+
+# --------------------------------------------------------------------------------------------------------
+# Command line
+# --------------------------------------------------------------------------------------------------------
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the ``navstack report`` arguments to ``parser``."""
+    parser.add_argument("dir", metavar="DIR", help="sweep directory holding results.jsonl")
+    parser.add_argument("--no-plots", action="store_true", help="write report.md only")
+
+
+def run_from_args(args: argparse.Namespace) -> int:
+    """Run ``navstack report``; exit status 0, or 2 for unusable input (message on stderr)."""
+    try:
+        path = write_report(args.dir, plots=not args.no_plots)
+    except ReportError as exc:
+        print(f"navstack report: error: {exc}", file=sys.stderr)
+        return 2
+    print(path)
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m navstack.report DIR``."""
+    parser = argparse.ArgumentParser(prog="navstack report", description=__doc__.split("\n")[0])
+    add_arguments(parser)
+    return run_from_args(parser.parse_args(argv))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,259 @@
+"""Tests of navstack.report: Wilson intervals, numbers in report.md against a recomputation, bad input."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from navstack import report
+from navstack.report import ReportError, summarize, wilson_interval, write_report
+
+Z = 1.959963984540054
+
+
+# ---------------------------------------------------------------------------------------------- Wilson
+
+
+@pytest.mark.parametrize(("k", "n", "lo", "hi"), [
+    # published Wilson 95 % intervals (e.g. Newcombe 1998, Table I; Brown, Cai & DasGupta 2001)
+    (0, 10, 0.0, 0.2775),
+    (10, 10, 0.7225, 1.0),
+    (5, 10, 0.2366, 0.7634),
+    (1, 20, 0.0089, 0.2361),
+    (81, 263, 0.2553, 0.3662),
+])
+def test_wilson_known_values(k, n, lo, hi):
+    got = wilson_interval(k, n)
+    assert got == pytest.approx((lo, hi), abs=1e-4)
+
+
+def test_wilson_endpoints_are_the_score_test_roots():
+    """Independent check: the bounds solve (phat - p)^2 = z^2 p (1 - p) / n (numpy.roots), for many k/n."""
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        n = int(rng.integers(1, 300))
+        k = int(rng.integers(0, n + 1))
+        ph = k / n
+        # (1 + z^2/n) p^2 - (2 ph + z^2/n) p + ph^2 = 0
+        roots = np.sort(np.roots([1 + Z * Z / n, -(2 * ph + Z * Z / n), ph * ph]).real)
+        lo, hi = wilson_interval(k, n)
+        assert (lo, hi) == pytest.approx(tuple(roots), abs=1e-9)
+        assert 0.0 <= lo <= ph <= hi <= 1.0
+
+
+@pytest.mark.parametrize(("k", "n"), [(0, 0), (3, 2), (-1, 5), (1.5, 4), (True, 3)])
+def test_wilson_bad_counts(k, n):
+    with pytest.raises(ValueError, match="wilson_interval"):
+        wilson_interval(k, n)
+
+
+# ---------------------------------------------------------------------------------------------- synthetic data
+
+METHODS = [("slither", "field"), ("tip-only", "field")]
+FAILS = ["collision", "timeout", "stalled", "joint_limit", "error"]
+
+
+def synthetic_records(seed: int = 1) -> list[dict]:
+    rng = np.random.default_rng(seed)
+    recs = []
+    i = 0
+    for fam, p_fam in (("truss", 0.8), ("pipe-rack", 0.5), (None, 0.6)):
+        for diff in ((0.2, 0.8) if fam else (None,)):
+            for ctrl, planner in METHODS:
+                p = p_fam * (1.0 if ctrl == "slither" else 0.5) * (1.2 - (diff or 0.5))
+                for _ in range(int(rng.integers(3, 15))):
+                    ok = bool(rng.random() < p)
+                    reason = "reached" if ok else FAILS[int(rng.integers(len(FAILS)))]
+                    err = reason == "error"
+                    rec = {
+                        "trial_id": f"t{i:04d}", "world": f"w{i}", "seed": i, "controller": ctrl,
+                        "planner": planner, "success": ok, "reason": reason, "goals_reached": None if err else 1,
+                        "sim_time": None if err else float(rng.uniform(5, 40)), "steps": None, "wall_time": 1.0,
+                        "metrics": {"tip_error_max": None, "contacts": None,
+                                    "slither_deviation_max": None if err else float(rng.uniform(0, 0.05)),
+                                    "min_clearance": None if err else float(rng.uniform(-0.01, 0.1))},
+                        "family": fam, "difficulty": diff,
+                    }
+                    if fam is None and rng.random() < 0.5:
+                        del rec["family"], rec["difficulty"]  # hand-made lines may lack the sweep fields
+                    recs.append(rec)
+                    i += 1
+    return recs
+
+
+def write_jsonl(path: Path, recs: list[dict]) -> Path:
+    path.write_text("".join(json.dumps(r) + "\n" for r in recs))
+    return path
+
+
+def md_table(text: str, heading: str) -> list[list[str]]:
+    """Rows (cells stripped) of the first Markdown table after ``heading``."""
+    lines = text.splitlines()
+    start = lines.index(heading)
+    rows = []
+    for line in lines[start + 1:]:
+        if line.startswith("#"):
+            break
+        if line.startswith("|"):
+            rows.append([c.strip() for c in line.strip().strip("|").split("|")])
+    assert rows, f"no table under {heading!r}"
+    return rows[2:]  # drop header and separator
+
+
+def hand_wilson(k: int, n: int) -> tuple[float, float]:
+    roots = np.sort(np.roots([1 + Z * Z / n, -(2 * k / n + Z * Z / n), (k / n) ** 2]).real)
+    return max(0.0, roots[0]), min(1.0, roots[1])
+
+
+# ---------------------------------------------------------------------------------------------- report
+
+
+def test_report_numbers_match_a_recomputation(tmp_path):
+    recs = synthetic_records()
+    write_jsonl(tmp_path / "results.jsonl", recs)
+    path = write_report(tmp_path)
+    assert path == tmp_path / "report.md"
+    text = path.read_text()
+
+    def fam(r):
+        return r.get("family") or "(none)"
+
+    # per family x difficulty x method
+    rows = md_table(text, "## Success rate per family, difficulty and controller")
+    cells = {}
+    for r in recs:
+        key = (fam(r), "-" if r.get("difficulty") is None else f"{r['difficulty']:g}", r["controller"], r["planner"])
+        cells.setdefault(key, []).append(r["success"])
+    assert len(rows) == len(cells)
+    for f, d, c, p, n, k, rate, lo, hi in rows:
+        got = cells[(f, d, c, p)]
+        assert (int(n), int(k)) == (len(got), sum(got))
+        assert float(rate) == pytest.approx(sum(got) / len(got), abs=5e-4)
+        assert (float(lo), float(hi)) == pytest.approx(hand_wilson(sum(got), len(got)), abs=5e-4)
+
+    # per method
+    rows = md_table(text, "## Success rate per controller")
+    assert [(r[0], r[1]) for r in rows] == sorted(METHODS)
+    for c, p, n, k, rate, lo, hi in rows:
+        got = [r["success"] for r in recs if (r["controller"], r["planner"]) == (c, p)]
+        assert (int(n), int(k)) == (len(got), sum(got))
+        assert float(rate) == pytest.approx(sum(got) / len(got), abs=5e-4)
+        assert (float(lo), float(hi)) == pytest.approx(hand_wilson(sum(got), len(got)), abs=5e-4)
+
+    # per family, controllers side by side: "rate (k/n) [lo, hi]"
+    rows = md_table(text, "## Success rate per family (controllers side by side)")
+    assert [r[0] for r in rows] == ["pipe-rack", "truss", "(none)"]
+    for row in rows:
+        for (c, p), cell in zip(sorted(METHODS), row[1:], strict=True):
+            got = [r["success"] for r in recs if fam(r) == row[0] and (r["controller"], r["planner"]) == (c, p)]
+            rate, frac, ci = cell.split(" ", 2)
+            assert frac == f"({sum(got)}/{len(got)})"
+            lo, hi = (float(x) for x in ci.strip("[]").split(","))
+            assert (lo, hi) == pytest.approx(hand_wilson(sum(got), len(got)), abs=5e-4)
+
+    # failure causes
+    rows = md_table(text, "## Failure causes")
+    for row in rows:
+        for (c, p), cell in zip(sorted(METHODS), row[1:], strict=True):
+            fails = [r for r in recs if (r["controller"], r["planner"]) == (c, p) and not r["success"]]
+            want = len(fails) if row[0] == "all failures" else sum(r["reason"] == row[0] for r in fails)
+            assert int(cell) == want
+    assert {r[0] for r in rows} == {r["reason"] for r in recs if not r["success"]} | {"all failures"}
+
+    # distributions: n and median
+    for heading, values in (
+        ("### Minimum clearance (m), all trials",
+         lambda r: r["metrics"]["min_clearance"]),
+        ("### Slithering deviation (m), all trials", lambda r: r["metrics"]["slither_deviation_max"]),
+        ("### Time to goal (s, simulated), successful trials",
+         lambda r: r["sim_time"] if r["success"] else None),
+    ):
+        for c, p, n, mn, _p10, med, _p90, mx, mean in md_table(text, heading):
+            v = [values(r) for r in recs if (r["controller"], r["planner"]) == (c, p)]
+            v = [x for x in v if x is not None]
+            assert int(n) == len(v)
+            for s, want in ((mn, min(v)), (med, float(np.median(v))), (mx, max(v)), (mean, float(np.mean(v)))):
+                assert float(s) == pytest.approx(want, rel=1e-3, abs=1e-6)
+
+    n_err = sum(r["reason"] == "error" for r in recs)
+    assert f"{n_err} here" in text
+    for png in ("success_rate", "success_vs_difficulty", "failure_causes", "min_clearance",
+                "slither_deviation", "time_to_goal"):
+        f = tmp_path / "plots" / f"{png}.png"
+        assert f.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and f.stat().st_size > 5000
+        assert f"(plots/{png}.png)" in text
+
+
+def test_summarize_is_pure_and_skips_missing_values():
+    recs = synthetic_records(seed=5)
+    a, b = summarize(recs), summarize(list(reversed(recs)))
+    assert a == b
+    m = ("slither", "field")
+    times = a.values["time_to_goal"][m]
+    assert len(times) == sum(1 for r in recs if r["success"] and r["controller"] == "slither")
+    assert a.errors == sum(r["reason"] == "error" for r in recs)
+    st = a.stats("min_clearance", m)
+    assert st.n == sum(1 for r in recs if r["controller"] == "slither" and r["metrics"]["min_clearance"] is not None)
+
+
+def test_truncated_last_line_is_ignored_with_a_note(tmp_path):
+    recs = synthetic_records()[:6]
+    write_jsonl(tmp_path / "results.jsonl", recs)
+    with open(tmp_path / "results.jsonl", "a") as fh:
+        fh.write('{"trial_id": "t9999", "contr')
+    text = write_report(tmp_path, plots=False).read_text()
+    assert "cut short" in text
+    rows = md_table(text, "## Success rate per controller")
+    assert sum(int(r[2]) for r in rows) == 6
+
+
+@pytest.mark.parametrize(("content", "needle"), [
+    ("", "empty"),
+    ("\n\n", "empty"),
+    ('{"a": 1}\n', "line 1: field 'controller'"),
+    ("GOOD\nGOOD\n{not json}\nGOOD\n", "line 3: malformed"),
+    ('GOOD\n{"controller": "slither", "planner": "field", "success": "yes", "reason": "reached"}\n',
+     "line 2: field 'success'"),
+    ('GOOD\n{"controller": "slither", "planner": "field", "success": false, "reason": "crashed"}\n',
+     "line 2: field 'reason' is 'crashed'"),
+    ('GOOD\n{"controller": "slither", "planner": "field", "success": true, "reason": "timeout"}\n',
+     "line 2: field 'reason' is 'timeout' but 'success' is true"),
+    ('GOOD\n{"controller": "s", "planner": "f", "success": false, "reason": "timeout", "metrics": '
+     '{"min_clearance": "far"}}\n', "line 2: field 'metrics.min_clearance'"),
+    ('GOOD\n{"trial_id": "t0000", "controller": "s", "planner": "f", "success": false, "reason": "timeout"}\n',
+     "line 2: trial_id 't0000' already on line 1"),
+])
+def test_bad_results_name_file_and_line(tmp_path, content, needle):
+    good = json.dumps(synthetic_records()[0])
+    (tmp_path / "results.jsonl").write_text(content.replace("GOOD", good, 1).replace("GOOD", json.dumps(
+        {**synthetic_records()[1], "trial_id": "t0001b"})).replace("GOOD", json.dumps(
+            {**synthetic_records()[2], "trial_id": "t0002b"})))
+    with pytest.raises(ReportError) as info:
+        write_report(tmp_path)
+    msg = str(info.value)
+    assert str(tmp_path / "results.jsonl") in msg
+    assert needle in msg
+    assert not (tmp_path / "report.md").exists()
+
+
+def test_missing_results_and_cli_exit_status(tmp_path, capsys):
+    with pytest.raises(ReportError, match="no such results file"):
+        write_report(tmp_path)
+    parser = argparse.ArgumentParser()
+    report.add_arguments(parser)
+    assert report.run_from_args(parser.parse_args([str(tmp_path)])) == 2
+    assert "results.jsonl" in capsys.readouterr().err
+    write_jsonl(tmp_path / "results.jsonl", synthetic_records()[:4])
+    assert report.run_from_args(parser.parse_args([str(tmp_path), "--no-plots"])) == 0
+    assert (tmp_path / "report.md").exists() and not (tmp_path / "plots").exists()
+
+
+def test_reasons_match_the_trial_module():
+    trial = pytest.importorskip("navstack.trial")
+    assert set(report.REASONS) == set(trial.REASONS)
+    assert math.isclose(report.Z95, 1.959963984540054)

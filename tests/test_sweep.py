@@ -1,0 +1,409 @@
+"""Tests of navstack.sweep with injected fake runners (no PyBullet; spawned worker processes are real).
+
+The fake runner and generator are top-level functions so spawned workers can unpickle them. A world file's
+``extra`` steers the fake: ``behaviour`` (ok / raise / hang / die), ``delay`` (s) and ``exec_log`` (a file
+the runner appends one line to per execution, to prove which trials really ran).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from navstack import sweep
+from navstack.sweep import SweepConfig, SweepError, TrialSpec, build_specs, read_results, run_sweep
+
+TESTS_DIR = Path(__file__).resolve().parent
+
+
+# ---------------------------------------------------------------------------------------------- fakes
+
+
+def fake_outcome(world_name: str, controller: str, seed: int) -> dict:
+    """What the fake runner returns: deterministic in its inputs, varied enough to catch mix-ups."""
+    success = (seed + len(controller)) % 3 != 0
+    return {
+        "world": world_name, "seed": seed, "controller": controller, "planner": "field",
+        "success": success, "reason": "reached" if success else "collision",
+        "goals_reached": 2 if success else 1, "sim_time": 10.0 + seed % 97 / 10.0, "steps": 1000 + seed % 89,
+        "wall_time": 0.05,
+        "metrics": {"tip_error_max": 0.001 * (seed % 5), "slither_deviation_max": 0.002 * (seed % 7),
+                    "min_clearance": 0.01 * (seed % 11) - 0.02, "contacts": 0 if success else 3},
+    }
+
+
+def fake_runner(world, *, controller, planner, seed, out_dir=None):
+    data = json.loads(Path(world).read_text())
+    extra = data.get("extra", {})
+    if extra.get("exec_log"):
+        with open(extra["exec_log"], "a") as fh:
+            fh.write(f"{data['name']} {controller} {planner}\n")
+    time.sleep(extra.get("delay", 0.0))
+    behaviour = extra.get("behaviour", "ok")
+    if behaviour == "raise":
+        raise RuntimeError(f"fake failure in {data['name']}")
+    if behaviour == "hang":
+        time.sleep(3600)
+    if behaviour == "die":
+        os._exit(7)
+    out = fake_outcome(data["name"], controller, seed)
+    out["planner"] = planner
+    return out
+
+
+def fake_generator(family: str, seed: int, difficulty: float) -> dict:
+    return {"format": "navstack-world/1", "name": f"{family}-{seed}-{difficulty!r}", "family": family,
+            "robot": {}, "obstacles": [], "goals": [{"position": [1, 0, 1]}],
+            "extra": {"difficulty": difficulty, "world_seed": seed}}
+
+
+def write_worlds(folder: Path, n: int, **extra) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    for i in range(n):
+        doc = {"format": "navstack-world/1", "name": f"w{i:02d}", "family": "truss" if i % 2 else "pipe-rack",
+               "extra": {"difficulty": 0.25 * (i % 3), **extra}}
+        (folder / f"w{i:02d}.json").write_text(json.dumps(doc))
+    return folder
+
+
+def lines_of(path: Path) -> list[dict]:
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def without_wall_time(records: list[dict]) -> list[dict]:
+    return [{k: v for k, v in r.items() if k != "wall_time"} for r in records]
+
+
+@pytest.fixture()
+def families(monkeypatch):
+    """Families known to build_specs, independent of navstack.generate's progress."""
+    monkeypatch.setattr(sweep, "_known_families", lambda: ("truss", "pipe-rack", "sphere-field"))
+
+
+# ---------------------------------------------------------------------------------------------- spec lists
+
+
+def test_generated_specs_are_deterministic_and_paired(families):
+    cfg = SweepConfig(families=("truss", "pipe-rack"), count=3, seed=7, difficulties=(0.2, 0.8),
+                      controllers=("slither", "tip-only"))
+    a, b = build_specs(cfg), build_specs(cfg)
+    assert a == b
+    assert len(a) == 2 * 3 * 2 * 2
+    assert len({s.trial_id for s in a}) == len(a)
+    by_world: dict[tuple, set] = {}
+    for s in a:
+        assert s.generated and s.world_file == f"worlds/{s.world_id}.json"
+        by_world.setdefault((s.family, s.index), set()).add((s.world_seed, s.seed))
+    # world and noise seeds depend on (seed, family, index) only: shared by difficulties and controllers
+    assert all(len(v) == 1 for v in by_world.values())
+    assert len({next(iter(v)) for v in by_world.values()}) == len(by_world)
+    # index-major order: a longer sweep starts with the shorter one
+    assert build_specs(dataclass_replace(cfg, count=4))[: len(a)] == a
+    # another sweep seed gives other worlds
+    other = build_specs(dataclass_replace(cfg, seed=8))
+    assert {s.world_seed for s in other}.isdisjoint({s.world_seed for s in a})
+    # specs survive a JSON round trip (they are stored in sweep.json)
+    assert [TrialSpec.from_dict(json.loads(json.dumps(s.to_dict()))) for s in a] == a
+
+
+def dataclass_replace(cfg: SweepConfig, **kw) -> SweepConfig:
+    import dataclasses
+
+    return dataclasses.replace(cfg, **kw)
+
+
+def test_worlds_dir_specs_read_family_and_difficulty(tmp_path):
+    folder = write_worlds(tmp_path / "in", 3)
+    specs = build_specs(SweepConfig(worlds_dir=str(folder), count=2, controllers=("slither", "tip-only")))
+    assert len(specs) == 3 * 2 * 2
+    s0 = [s for s in specs if s.world_id == "w01"]
+    assert {s.family for s in s0} == {"truss"} and {s.difficulty for s in s0} == {0.25}
+    assert all(Path(s.world_file).is_absolute() and not s.generated for s in specs)
+    assert len({s.seed for s in specs if s.world_id == "w00"}) == 2  # repetitions get different noise seeds
+
+
+@pytest.mark.parametrize(("kwargs", "needle"), [
+    ({"families": ("truss",), "count": 0}, "count"),
+    ({"families": ("truss",), "difficulties": (float("nan"),)}, "difficulty"),
+    ({"families": ("truss",), "controllers": ("snake",)}, "controller 'snake'"),
+    ({"families": ("truss",), "planners": ()}, "planners"),
+    ({"families": ("truss", "truss")}, "duplicates"),
+    ({}, "exactly one"),
+    ({"families": ("truss",), "worlds_dir": "x"}, "exactly one"),
+])
+def test_bad_config_is_refused(kwargs, needle):
+    with pytest.raises(SweepError, match=needle):
+        SweepConfig(**kwargs)
+
+
+def test_bad_inputs_name_what_and_where(tmp_path, families):
+    with pytest.raises(SweepError, match="unknown world family 'moon'"):
+        build_specs(SweepConfig(families=("moon",)))
+    with pytest.raises(SweepError, match="no \\*.json"):
+        build_specs(SweepConfig(worlds_dir=str(tmp_path)))
+    (tmp_path / "bad.json").write_text('{"name": "x",\n "family": }')
+    with pytest.raises(SweepError, match=r"bad\.json: invalid JSON at line 2"):
+        build_specs(SweepConfig(worlds_dir=str(tmp_path)))
+    with pytest.raises(SweepError, match="picklable"):
+        run_sweep([], tmp_path / "o", runner=lambda w, **k: {})
+
+
+# ---------------------------------------------------------------------------------------------- results file
+
+
+def test_read_results_truncated_tail_and_malformed_line(tmp_path):
+    p = tmp_path / "results.jsonl"
+    good = '{"trial_id": "a", "success": true}\n{"trial_id": "b", "success": false}\n'
+    p.write_text(good + '{"trial_id": "c", "succ')
+    rf = read_results(p)
+    assert [r["trial_id"] for r in rf.records] == ["a", "b"]
+    assert rf.truncated_tail and rf.valid_bytes == len(good.encode())
+    p.write_text('{"trial_id": "a"}\n{"trial_id": \n{"trial_id": "b"}\n')
+    with pytest.raises(SweepError, match=r"results\.jsonl, line 2: malformed"):
+        read_results(p)
+    p.write_text('{"trial_id": "a"}\n[1, 2]\n')
+    with pytest.raises(SweepError, match="line 2"):
+        read_results(p)
+
+
+# ---------------------------------------------------------------------------------------------- sweeps
+
+
+def test_parallel_sweep_then_partial_resume_with_truncated_line(tmp_path):
+    log = tmp_path / "exec.log"
+    folder = write_worlds(tmp_path / "in", 5, delay=0.05, exec_log=str(log))
+    specs = build_specs(SweepConfig(worlds_dir=str(folder), controllers=("slither", "tip-only")))
+    full = tmp_path / "full"
+    summary = run_sweep(specs, full, jobs=2, runner=fake_runner, progress=False)
+    assert summary.complete and summary.ran == 10 and summary.errors == 0
+    recs = lines_of(full / "results.jsonl")
+    # N unique lines, in trial-list order once complete, each the runner's answer plus the sweep fields
+    assert [r["trial_id"] for r in recs] == [s.trial_id for s in specs]
+    for r, s in zip(recs, specs, strict=True):
+        expect = fake_outcome(s.world_id, s.controller, s.seed)
+        assert {k: r[k] for k in expect} == expect
+        assert (r["family"], r["difficulty"], r["index"]) == (s.family, s.difficulty, s.index)
+    assert summary.succeeded == sum(r["success"] for r in recs)
+    assert len(log.read_text().splitlines()) == 10
+    assert json.loads((full / "sweep.json").read_text())["trials"] == [s.to_dict() for s in specs]
+
+    # A partial copy: 4 finished lines, then half of a 5th line (a write cut by a kill).
+    part = tmp_path / "part"
+    part.mkdir()
+    shutil.copy(full / "sweep.json", part / "sweep.json")
+    raw = (full / "results.jsonl").read_text().splitlines(keepends=True)
+    (part / "results.jsonl").write_text("".join(raw[:4]) + raw[4][: len(raw[4]) // 2])
+    log.write_text("")
+    summary = run_sweep(specs, part, jobs=2, runner=fake_runner, progress=False)
+    assert summary.dropped_truncated_line and summary.skipped == 4 and summary.ran == 6
+    ran = sorted(log.read_text().splitlines())
+    assert ran == sorted(f"{s.world_id} {s.controller} {s.planner}" for s in specs[4:])
+    assert without_wall_time(lines_of(part / "results.jsonl")) == without_wall_time(recs)
+
+    # Rerun of a finished sweep runs nothing; another spec list in the same directory is refused.
+    log.write_text("")
+    summary = run_sweep(specs, part, jobs=2, runner=fake_runner, progress=False)
+    assert summary.ran == 0 and summary.skipped == 10 and log.read_text() == ""
+    with pytest.raises(SweepError, match="holds a different sweep"):
+        run_sweep(specs[:-1], part, jobs=1, runner=fake_runner, progress=False)
+    (tmp_path / "foreign").mkdir()
+    (tmp_path / "foreign" / "results.jsonl").write_text("")
+    with pytest.raises(SweepError, match="sweep.json does not"):
+        run_sweep(specs, tmp_path / "foreign", runner=fake_runner, progress=False)
+
+
+def test_raising_hanging_and_dying_trials_are_errors_and_sweep_completes(tmp_path):
+    folder = tmp_path / "in"
+    write_worlds(folder, 3)
+    for name, behaviour in (("x_raise", "raise"), ("x_hang", "hang"), ("x_die", "die")):
+        (folder / f"{name}.json").write_text(json.dumps({"name": name, "extra": {"behaviour": behaviour}}))
+    specs = build_specs(SweepConfig(worlds_dir=str(folder)))
+    t0 = time.monotonic()
+    summary = run_sweep(specs, tmp_path / "out", jobs=2, trial_timeout=1.5, runner=fake_runner,
+                        progress=False)
+    assert time.monotonic() - t0 < 30
+    recs = {r["trial_id"]: r for r in lines_of(tmp_path / "out" / "results.jsonl")}
+    assert summary.complete and len(recs) == 6 and summary.errors == 3
+    for tid, needle in (("x_raise", "RuntimeError: fake failure in x_raise"), ("x_hang", "1.5 s wall-clock"),
+                        ("x_die", "exit code 7")):
+        r = recs[f"{tid}__000__slither__field"]
+        assert (r["success"], r["reason"]) == (False, "error")
+        assert needle in r["error"]
+        assert r["metrics"]["min_clearance"] is None
+    assert "fake_runner" in recs["x_raise__000__slither__field"]["traceback"]
+    assert all(recs[f"w{i:02d}__000__slither__field"]["reason"] in ("reached", "collision") for i in range(3))
+
+
+def test_generated_sweep_is_reproducible_and_writes_worlds(tmp_path, families):
+    cfg = SweepConfig(families=("truss", "sphere-field"), count=2, seed=3, difficulties=(0.3, 0.9))
+    specs = build_specs(cfg)
+    outs = []
+    for name in ("a", "b"):
+        run_sweep(specs, tmp_path / name, jobs=2, runner=fake_runner, generator=fake_generator,
+                  progress=False, config=cfg)
+        outs.append(lines_of(tmp_path / name / "results.jsonl"))
+    assert without_wall_time(outs[0]) == without_wall_time(outs[1])
+    for r, s in zip(outs[0], specs, strict=True):
+        world = json.loads((tmp_path / "a" / s.world_file).read_text())
+        # the runner was given the written world file: its name carries the generator's inputs
+        assert r["world"] == world["name"] == f"{s.family}-{s.world_seed}-{s.difficulty!r}"
+    assert len(list((tmp_path / "a" / "worlds").glob("*.json"))) == 2 * 2 * 2
+    assert json.loads((tmp_path / "a" / "sweep.json").read_text())["config"]["seed"] == 3
+
+
+# ---------------------------------------------------------------------------------------------- real kills
+
+KILL_SCRIPT = """
+import sys
+sys.path.insert(0, {tests!r})
+from test_sweep import fake_runner
+from navstack.sweep import SweepConfig, build_specs, run_sweep
+specs = build_specs(SweepConfig(worlds_dir={worlds!r}, controllers=("slither", "tip-only")))
+s = run_sweep(specs, {out!r}, jobs=2, runner=fake_runner, progress=False)
+print("INTERRUPTED" if s.interrupted else "DONE", s.recorded, flush=True)
+sys.exit(130 if s.interrupted else 0)
+"""
+
+
+def _start_and_kill(script: str, results: Path, at_least: int, sig: int) -> tuple[int, str]:
+    before = len(lines_of(results)) if results.exists() else 0
+    proc = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        if results.exists() and len(results.read_text().splitlines()) >= before + at_least:
+            break
+        if proc.poll() is not None:
+            break
+        time.sleep(0.02)
+    proc.send_signal(sig)
+    out, err = proc.communicate(timeout=30)
+    return proc.returncode, out + err
+
+
+@pytest.mark.slow
+def test_sigint_and_sigkill_then_resume_lose_and_duplicate_nothing(tmp_path):
+    log = tmp_path / "exec.log"
+    folder = write_worlds(tmp_path / "in", 12, delay=0.15, exec_log=str(log))
+    out = tmp_path / "out"
+    results = out / "results.jsonl"
+    script = KILL_SCRIPT.format(tests=str(TESTS_DIR), worlds=str(folder), out=str(out))
+    specs = build_specs(SweepConfig(worlds_dir=str(folder), controllers=("slither", "tip-only")))
+    total = len(specs)
+
+    rc, text = _start_and_kill(script, results, 3, signal.SIGINT)
+    assert rc == 130 and "INTERRUPTED" in text, text
+    after_int = results.read_bytes()
+    n_int = len(lines_of(results))
+    assert 3 <= n_int < total
+
+    rc, _ = _start_and_kill(script, results, 3, signal.SIGKILL)
+    assert rc == -signal.SIGKILL
+    time.sleep(1.5)  # orphaned workers notice their parent is gone and exit
+    after_kill = results.read_bytes()
+    assert after_kill.startswith(after_int)  # nothing recorded was lost or rewritten
+    recorded_before_resume = {r["trial_id"] for r in read_results(results).records}
+    assert len(recorded_before_resume) > n_int
+    executed_before = len(log.read_text().splitlines())
+
+    summary = run_sweep(specs, out, jobs=2, runner=fake_runner, progress=False)
+    assert summary.complete
+    recs = lines_of(results)
+    assert sorted(r["trial_id"] for r in recs) == sorted(s.trial_id for s in specs)  # each exactly once
+    # the resume executed only trials that had no line yet
+    resumed = log.read_text().splitlines()[executed_before:]
+    recorded_keys = {f"{s.world_id} {s.controller} {s.planner}" for s in specs
+                     if s.trial_id in recorded_before_resume}
+    assert len(resumed) == total - len(recorded_before_resume)
+    assert not set(resumed) & recorded_keys
+    for r, s in zip(recs, specs, strict=True):
+        assert r["success"] == fake_outcome(s.world_id, s.controller, s.seed)["success"]
+
+
+# ---------------------------------------------------------------------------------------------- command line
+
+
+def _parse(argv: list[str]):
+    import argparse
+
+    parser = argparse.ArgumentParser()
+    sweep.add_trials_arguments(parser)
+    return parser.parse_args(argv)
+
+
+def test_cli_arguments_build_the_config(families):
+    args = _parse(["--generate", "truss", "pipe-rack", "--count", "2", "--seed", "4", "--difficulty", "0.2", "0.8",
+                   "--controller", "slither", "--controller", "tip-only", "--out", "x"])
+    cfg = sweep.config_from_args(args)
+    assert cfg == SweepConfig(families=("truss", "pipe-rack"), count=2, seed=4, difficulties=(0.2, 0.8),
+                              controllers=("slither", "tip-only"), planners=("field",))
+    assert len(build_specs(cfg)) == 2 * 2 * 2 * 2
+
+
+def test_cli_bad_input_and_interrupt_messages(tmp_path, capsys, monkeypatch):
+    assert sweep.run_from_args(_parse(["--worlds", str(tmp_path), "--out", str(tmp_path / "o")]), []) == 2
+    assert "no *.json world files" in capsys.readouterr().err
+    write_worlds(tmp_path / "in", 2)
+
+    def interrupted(specs, out_dir, **kw):
+        return sweep.SweepSummary(out_dir=Path(out_dir), results_path=Path(out_dir) / "results.jsonl",
+                                  total=len(specs), skipped=0, recorded=1, interrupted=True)
+
+    monkeypatch.setattr(sweep, "run_sweep", interrupted)
+    argv = ["trials", "--worlds", str(tmp_path / "in"), "--out", str(tmp_path / "o")]
+    assert sweep.run_from_args(_parse(argv[1:]), argv) == 130
+    err = capsys.readouterr().err
+    assert "1 of 2 trials are recorded" in err and f"navstack trials --worlds {tmp_path / 'in'}" in err
+
+
+def test_names_match_the_trial_module():
+    trial = pytest.importorskip("navstack.trial")
+    assert sweep.CONTROLLERS == tuple(trial.CONTROLLERS)
+    assert sweep.PLANNERS == tuple(trial.PLANNERS)
+
+
+def test_worker_that_cannot_start_stops_the_sweep(tmp_path, monkeypatch):
+    """A runner the spawned worker cannot import is a sweep error, not an endless respawn loop."""
+    import types
+
+    mod = types.ModuleType("navstack_test_not_importable")
+
+    def runner(world, **kw):  # pragma: no cover - never runs
+        return {}
+
+    runner.__module__ = mod.__name__
+    runner.__qualname__ = "runner"
+    mod.runner = runner
+    monkeypatch.setitem(sys.modules, mod.__name__, mod)
+    folder = write_worlds(tmp_path / "in", 2)
+    specs = build_specs(SweepConfig(worlds_dir=str(folder)))
+    t0 = time.monotonic()
+    with pytest.raises(sweep.SweepWorkerError, match="died while starting"):
+        run_sweep(specs, tmp_path / "out", jobs=1, runner=mod.runner, progress=False)
+    assert time.monotonic() - t0 < 30
+    assert (tmp_path / "out" / "results.jsonl").read_text() == ""
+
+
+def test_second_sweep_on_a_busy_directory_is_refused(tmp_path):
+    import fcntl
+
+    folder = write_worlds(tmp_path / "in", 1)
+    specs = build_specs(SweepConfig(worlds_dir=str(folder)))
+    out = tmp_path / "out"
+    out.mkdir()
+    fd = os.open(out / "sweep.lock", os.O_RDWR | os.O_CREAT)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)  # another process's open file description holding the lock
+        with pytest.raises(SweepError, match="another sweep is running"):
+            run_sweep(specs, out, runner=fake_runner, progress=False)
+    finally:
+        os.close(fd)
+    assert not (out / "results.jsonl").exists()
