@@ -56,7 +56,7 @@ def _demo(args: argparse.Namespace) -> int:
     world = world_from_dict(paper_truss_world())
     print(f"navstack demo: {world.description}")
     results = []
-    for controller in args.controller or ["slither"]:
+    for controller in args.controller or ["slither", "tip-only"]:
         out = Path(args.out) / controller
         result = run_trial(world, controller=controller, planner=args.planner, seed=args.seed, out_dir=out, render=True)
         print(f"[{controller}] " + _summary(result))
@@ -126,7 +126,12 @@ def build_parser() -> argparse.ArgumentParser:
     d = sub.add_parser("demo", help="the paper's truss demo, headless (writes result.json, trajectory.npz, scene.png)")
     d.add_argument("--out", default="out/demo", help="output folder (default: out/demo)")
     d.add_argument("--planner", choices=PLANNERS, default="field")
-    d.add_argument("--controller", action="append", choices=CONTROLLERS, help="repeatable (default: slither)")
+    d.add_argument(
+        "--controller",
+        action="append",
+        choices=CONTROLLERS,
+        help="repeatable (default: slither, then the tip-only baseline)",
+    )
     d.add_argument("--seed", type=int, default=0)
     d.set_defaults(func=_demo)
 
@@ -151,12 +156,9 @@ def build_parser() -> argparse.ArgumentParser:
     g.set_defaults(func=_generate)
 
     t = sub.add_parser("trials", help="run many trials in parallel into DIR/results.jsonl (resumable)")
-    try:
-        from navstack.sweep import add_trials_arguments
+    from navstack.sweep import add_trials_arguments
 
-        add_trials_arguments(t)
-    except ImportError:  # pragma: no cover - during development only
-        pass
+    add_trials_arguments(t)
     t.set_defaults(func=_trials)
 
     rp = sub.add_parser("report", help="summarise DIR/results.jsonl into DIR/report.md and PNG plots")

@@ -87,9 +87,9 @@ from typing import Any
 import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.interpolate import CubicSpline
 from scipy.spatial.transform import Rotation
 
+from navstack.guide import GuidePath, goal_spline
 from navstack.jpl import BACKBONE_FRAMES, LINK_LENGTH, Q_DEFAULT, jpl_serpentine
 from navstack.truss import PAPER_BASE_RPY, incircle_offset, paper_truss_world, robot_tip_start, truss_members
 from navstack.world import Box, Cylinder, Mesh, Obstacle, Sphere, World, save_world, world_from_dict
@@ -156,24 +156,8 @@ class CheckConfig:
             raise ValueError(f"CheckConfig.goal_reach must be at most 1, got {self.goal_reach!r}")
 
 
-@dataclass(frozen=True)
-class ReferencePath:
-    """A reference tip path sampled along its length.
-
-    Attributes:
-        points: (N, 3) world positions [m], first = the start tip.
-        arc: (N,) cumulative arc length [m].
-        min_turn_radius: smallest radius of curvature of the spline [m].
-    """
-
-    points: FloatArray
-    arc: FloatArray
-    min_turn_radius: float
-
-    @property
-    def length(self) -> float:
-        """Total length [m]."""
-        return float(self.arc[-1])
+ReferencePath = GuidePath
+"""A reference tip path: the goal spline through the via points (:class:`navstack.guide.GuidePath`)."""
 
 
 @dataclass(frozen=True)
@@ -212,46 +196,12 @@ class CheckReport:
 
 def reference_path(start: ArrayLike, heading: ArrayLike, via: ArrayLike,
                    sample: float = 0.002) -> ReferencePath:
-    """The scripted planner's curve: a cubic spline from ``start`` through ``via`` (k, 3) [m].
-
-    Chord-length parameterised, first derivative = unit ``heading`` at the start, natural end (as
-    :class:`navstack.scripted.ScriptedPlanner`), sampled every ``sample`` metres of parameter
-    (about that much arc length).
+    """The scripted planner's curve from ``start`` through ``via`` (k, 3) [m]: :func:`navstack.guide.goal_spline`.
 
     Raises:
         ValueError: wrong shapes, non-finite values, or a zero heading.
     """
-    p0 = np.asarray(start, dtype=np.float64)
-    h = np.asarray(heading, dtype=np.float64)
-    v = np.atleast_2d(np.asarray(via, dtype=np.float64))
-    if p0.shape != (3,) or h.shape != (3,) or v.ndim != 2 or v.shape[1] != 3 or len(v) == 0:
-        raise ValueError(f"reference_path needs start (3,), heading (3,) and via (k, 3), got {p0.shape}, "
-                         f"{h.shape}, {v.shape}")
-    if not (np.isfinite(p0).all() and np.isfinite(h).all() and np.isfinite(v).all()):
-        raise ValueError("reference_path: start, heading and via must be finite")
-    if not (np.isfinite(sample) and sample > 0):
-        raise ValueError(f"reference_path: sample must be a positive length [m], got {sample!r}")
-    hn = float(np.linalg.norm(h))
-    if hn < 1e-12:
-        raise ValueError("reference_path: heading must be non-zero")
-    pts = [p0]
-    for g in v:
-        if np.linalg.norm(g - pts[-1]) > 1e-6:
-            pts.append(g)
-    if len(pts) < 2:
-        pts.append(p0 + 1e-3 * h / hn)
-    P = np.array(pts)
-    u = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))])
-    spline = CubicSpline(u, P, bc_type=((1, h / hn), (2, np.zeros(3))))
-    fine = np.linspace(0.0, u[-1], max(int(np.ceil(u[-1] / (sample / 4))), 8) + 1)
-    d1 = spline(fine, 1)
-    d2 = spline(fine, 2)
-    speed = np.linalg.norm(d1, axis=1)
-    curv = np.linalg.norm(np.cross(d1, d2), axis=1) / np.maximum(speed**3, 1e-12)
-    uu = np.linspace(0.0, u[-1], max(int(np.ceil(u[-1] / sample)), 2) + 1)
-    xyz = spline(uu)
-    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(xyz, axis=0), axis=1))])
-    return ReferencePath(points=xyz, arc=arc, min_turn_radius=float(1.0 / max(curv.max(), 1e-12)))
+    return goal_spline(start, heading, via, sample)
 
 
 def _bounding_sphere(o: Obstacle) -> tuple[FloatArray, float]:

@@ -37,9 +37,16 @@ Each step:
    cell: the obstacles are static).
    Only memory points within ``memory_radius`` of ``x_d`` are used; they are
    all the planner knows about obstacles.
-2. **Attract**: unit vector towards the goal (with a ``next_goal``, towards a
-   carrot on a local cubic curve that arrives at the goal along the corner's
-   bisector, so the tip is already turning towards the next goal);
+2. **Attract**: with a **guide** (the goal spline of :mod:`navstack.guide`,
+   built from the start, the heading and the goals only) and ``x_d`` within
+   ``guide_capture`` of it, pure pursuit of the guide: the unit vector to the
+   guide point ``guide_lookahead`` beyond the nearest one (never beyond the
+   current goal), so the tip arrives at each goal already turned towards the
+   next along a curve of feasible curvature.  Off the guide, or once the
+   sensed points lie on the guide itself (it leads into an obstacle: dropped
+   for the rest of that goal), or after an escape: the unit vector towards
+   the goal (with a ``next_goal``, towards a carrot on a local cubic curve that
+   arrives at the goal along the corner's bisector);
    with ``gap_centering`` towards the **free-space centre of the opening ahead**
    instead (below).  A **reachability guard** keeps the resulting direction
    within ``asin(goal_guard * d / 2R)`` of the goal direction (``d`` the distance
@@ -53,7 +60,9 @@ Each step:
    unit vectors away from them (weights ``(1/rho - 1/rho0)^2``) and the magnitude
    ``repulsion_gain (1/rho_min - 1/rho0) / (1/safety_distance - 1/rho0)``,
    faded out within ``goal_repulsion_radius`` of the goal.
-4. **Look ahead**: points inside the forward tube (radius ``body_radius +
+4. **Look ahead** (on the guide: only if a known point lies in the tube along the
+   guide itself, shifted through ``x_d``; a straight tube is no forecast on a curve):
+   points inside the forward tube (radius ``body_radius +
    tube_margin``, length ``lookahead``, in goal mode not beyond the goal) push
    the heading sideways, away from them, with full weight inside one turn
    radius plus the tube radius and for points the tip would hit; the turning
@@ -142,6 +151,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from navstack.estimate import EstimatorConfig, RangeEstimate, RangeEstimator
+from navstack.guide import GuidePath
 from navstack.sensing import SensorReading
 
 __all__ = [
@@ -239,6 +249,12 @@ class PlannerConfig:
             to the goal (0 < corner_lead <= 1; larger = smoother, slower to converge).
         corner_tangent: length of the curve's tangent at the goal, in units of the distance
             to the goal (larger = the tip lines up with the corner's bisector earlier).
+        guide_lookahead: with a guide (the goal spline), the carrot is this far ahead of the
+            nearest guide point along the guide [m] (pure pursuit).
+        guide_gap_centering: centre in openings also while on the guide (off: on the guide the
+            goal spline is trusted and only the repulsion and the look-ahead deflect the tip).
+        guide_capture: the tip counts as on the guide within this distance of it [m]; then the
+            guide's feasible curvature is trusted (no turning-circle or reachability override).
         goal_guard: fraction of the largest deflection from the goal direction that still
             lets the tip turn onto the goal (``sin a <= d / 2R``), in (0, 1].
         stall_window: time without progress that declares a stall [s].
@@ -280,6 +296,9 @@ class PlannerConfig:
     gap_max_angle: float = 0.8
     goal_repulsion_radius: float = 0.05
     goal_guard: float = 0.8
+    guide_lookahead: float = 0.05
+    guide_capture: float = 0.05
+    guide_gap_centering: bool = True
     corner_lead: float = 0.2
     corner_tangent: float = 1.5
     stall_window: float = 10.0
@@ -299,6 +318,7 @@ class PlannerConfig:
             ("v_max", "min_turn_radius", "influence_distance", "safety_distance", "slow_distance",
              "lookahead", "max_lead", "approach_distance", "gap_clearance_cap", "gap_min_lookahead",
              "gap_recover_distance", "goal_repulsion_radius", "gap_max_angle", "goal_guard",
+             "guide_lookahead", "guide_capture",
              "stall_window", "stall_progress", "escape_timeout", "follow_distance", "follow_range",
              "memory_voxel", "memory_radius"),
             _POSITIVE,
@@ -326,6 +346,8 @@ class PlannerConfig:
                 raise ValueError(f"PlannerConfig.{name} must be an integer >= {lo}, got {v!r}")
         if not 0.0 < self.goal_guard <= 1.0:
             raise ValueError(f"PlannerConfig.goal_guard must be in (0, 1], got {self.goal_guard}")
+        if not isinstance(self.guide_gap_centering, (bool, np.bool_)):
+            raise ValueError(f"PlannerConfig.guide_gap_centering must be a bool, got {self.guide_gap_centering!r}")
         if not isinstance(self.gap_centering, (bool, np.bool_)):
             raise ValueError(f"PlannerConfig.gap_centering must be a bool, got {self.gap_centering!r}")
         if not isinstance(self.estimator, EstimatorConfig):
@@ -481,6 +503,9 @@ class PotentialFieldPlanner:
             measured tip position of the first :meth:`step`.
         heading: (3,) initial heading (world, normalised here); ``None`` = the
             measured tip direction of the first :meth:`step`.
+        guide: the goal spline (:func:`navstack.guide.goal_spline`, built from the start,
+            the heading and the goals only) whose carrot the attraction pursues; ``None``
+            = head for each goal (with a ``next_goal``, along a local corner curve).
 
     The constructor takes no world, scene or obstacle: the planner only ever
     sees sensor readings (tests/test_isolation.py).
@@ -491,9 +516,18 @@ class PotentialFieldPlanner:
         config: PlannerConfig | None = None,
         start: ArrayLike | None = None,
         heading: ArrayLike | None = None,
+        guide: GuidePath | None = None,
     ) -> None:
         if config is None:
             config = PlannerConfig()
+        if guide is not None and not isinstance(guide, GuidePath):
+            raise TypeError(f"guide must be a navstack.guide.GuidePath or None, got {type(guide).__name__}")
+        self.guide = guide
+        self.guide_s = 0.0
+        """Arc length [m] of the guide point nearest to ``x_d`` (monotone search window)."""
+        self.guide_deviation = np.inf
+        """Distance [m] of ``x_d`` from the guide at the last step (inf without a guide)."""
+        self._guide_blocked = False
         if not isinstance(config, PlannerConfig):
             raise TypeError(f"config must be a PlannerConfig, got {type(config).__name__}")
         self.config = config
@@ -666,12 +700,30 @@ class PotentialFieldPlanner:
                 self._ref_dist = np.inf
                 self._ref_time = self.time
         else:
-            e_aim = self._aim_direction(x, h, g, e, dist, g_next)
-            F_att = self._attraction(x, h, e, e_aim, dist, P, dt)
+            e_guide = self._guide_aim(x, g)
+            on_guide = e_guide is not None and self.guide_deviation <= cfg.guide_capture
+            if on_guide and not self._guide_tube_clear(x, P, horizon, cfg.body_radius + 0.005):
+                # something sits on the guide itself (the tip would hit it): the goal spline
+                # leads into an obstacle, so for this goal the field alone steers
+                self._guide_blocked = True
+                on_guide = False
+            if on_guide and self._guide_tube_clear(x, P, horizon, cfg.body_radius + cfg.tube_margin):
+                # the straight tube ahead is no forecast on a curved guide: nothing known lies
+                # in the tube along the guide (shifted by the current deviation), so no push
+                F_avoid = np.zeros(3)
+            # on the guide: pursue it; off it (an obstacle pushed the tip away): head for the goal
+            e_aim = e_guide if on_guide else self._aim_direction(x, h, g, e, dist, g_next)
+            if on_guide and not cfg.guide_gap_centering:
+                F_att = e_aim
+                self.gap_offset = np.zeros(3)
+            else:
+                F_att = self._attraction(x, h, e, e_aim, dist, P, dt)
             D = F_att + F_rep + F_avoid
             u = _unit(D)
             d = h.copy() if u is None else u
-            if self._widening:
+            if on_guide:
+                self._widening = False  # the guide's curvature is feasible: pursue it
+            elif self._widening:
                 self._widening = self._goal_inside_turn_circle(x, h, g, goal_tolerance, margin=1.25)
             else:
                 self._widening = self._goal_inside_turn_circle(x, h, g, goal_tolerance)
@@ -711,6 +763,7 @@ class PotentialFieldPlanner:
 
     def _new_goal(self, g: NDArray[np.float64]) -> None:
         self._goal = g.copy()
+        self._guide_blocked = False
         self._widening = False
         self.mode = "goal"
         self.n_escapes = 0
@@ -816,6 +869,46 @@ class PotentialFieldPlanner:
             direction = side if direction is None else direction
         self._pref = direction
         return cfg.avoid_gain * float(w.max()) * direction, free
+
+    def _guide_aim(self, x: NDArray[np.float64], g: NDArray[np.float64]) -> NDArray[np.float64] | None:
+        """Pure pursuit of the guide: the unit direction to the carrot, or None without a guide.
+
+        The nearest guide point is searched in a window from just behind the last one up
+        to the current goal's arc length (O(window) per step); the carrot is
+        ``guide_lookahead`` further along, never beyond the current goal.  A goal that is
+        not one of the guide's goals (the caller changed them) disables the guide.
+        """
+        guide = self.guide
+        self.guide_deviation = np.inf
+        if guide is None or self.n_escapes > 0 or self._guide_blocked:
+            return None  # (after an escape the way round is the tip's own: the guide led into the trap)
+        match = np.flatnonzero(np.all(np.abs(guide.goals - g) <= 1e-9, axis=1))
+        if match.size == 0:
+            return None
+        s_goal = float(guide.goal_arcs[match.min()])
+        cfg = self.config
+        s, dev = guide.project(x, self.guide_s - 0.05, min(s_goal, self.guide_s + 0.3))
+        self.guide_s = s
+        self.guide_deviation = dev
+        carrot, _ = guide.point(min(s + cfg.guide_lookahead, s_goal))
+        return _unit(carrot - x)
+
+    def _guide_tube_clear(self, x: NDArray[np.float64], P: NDArray[np.float64], horizon: float,
+                          tube: float) -> bool:
+        """True if no memory point lies in the tube of radius ``tube`` along the next ``horizon``
+        metres of the guide, shifted to pass through ``x``."""
+        guide = self.guide
+        assert guide is not None
+        if P.shape[0] == 0:
+            return True
+        P = P[np.linalg.norm(P - x, axis=1) < horizon + tube]
+        if P.shape[0] == 0:
+            return True
+        p0, _ = guide.point(self.guide_s)
+        ss = np.arange(self.guide_s, min(self.guide_s + horizon, guide.length) + 1e-9, 0.01)
+        centre = np.array([guide.point(si)[0] for si in ss]) + (x - p0)
+        d2 = ((P[:, None, :] - centre[None, :, :]) ** 2).sum(axis=2)
+        return bool(d2.min() >= tube * tube)
 
     def _aim_direction(self, x: NDArray[np.float64], h: NDArray[np.float64], g: NDArray[np.float64],
                        e: NDArray[np.float64], dist: float, g_next: NDArray[np.float64] | None

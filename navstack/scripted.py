@@ -1,9 +1,9 @@
 """Scripted tip path: a smooth curve through the goals, no sensing (the baseline).
 
-The curve is a cubic spline through the start tip position and every goal,
-parameterised by chord length, leaving the start along the tip's current
-heading (clamped first derivative) so the serpentine need not kink on the
-first step.  It is resampled by arc length and traversed with a trapezoidal
+The curve is :func:`navstack.guide.goal_spline`: a cubic spline through the
+start tip position and every goal, parameterised by chord length, leaving the
+start along the tip's current heading (clamped first derivative) so the
+serpentine need not kink on the first step.  It is resampled by arc length and traversed with a trapezoidal
 speed profile (``speed`` [m/s], ``accel`` [m/s^2]).  The smallest radius of
 curvature is reported (``min_turn_radius``); worlds for the scripted planner
 should keep it above about 0.25 m so the serpentine joints stay near 40 deg.
@@ -14,9 +14,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
-from scipy.interpolate import CubicSpline
+from numpy.typing import ArrayLike
 
+from navstack.guide import goal_spline
 from navstack.planner import TipCommand
 
 
@@ -56,41 +56,12 @@ class ScriptedPlanner:
             raise ValueError("ScriptedPlanner needs a start (3,), a heading (3,) and goals (k, 3)")
         if not (np.isfinite(start).all() and np.isfinite(heading).all() and np.isfinite(goals).all()):
             raise ValueError("ScriptedPlanner: start, heading and goals must be finite")
-        pts = [start]
-        for g in goals:  # drop goals that coincide with the previous point
-            if np.linalg.norm(g - pts[-1]) > 1e-6:
-                pts.append(g)
-        if len(pts) < 2:
-            pts.append(start + 1e-3 * heading / max(np.linalg.norm(heading), 1e-12))
-        pts = np.array(pts)
-        u = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
-        h = heading / np.linalg.norm(heading)
-        spline = CubicSpline(u, pts, bc_type=((1, h), (2, np.zeros(3))))
-        # dense samples -> cumulative arc length
-        n = max(int(np.ceil(u[-1] / (self.config.sample / 4))), 8)
-        uu = np.linspace(0.0, u[-1], n + 1)
-        xyz = spline(uu)
-        s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(xyz, axis=0), axis=1))])
-        self._s = s
-        self._xyz = xyz
-        self.length = float(s[-1])
-        d1 = spline(uu, 1)
-        d2 = spline(uu, 2)
-        speed = np.linalg.norm(d1, axis=1)
-        curv = np.linalg.norm(np.cross(d1, d2), axis=1) / np.maximum(speed**3, 1e-12)
-        self.min_turn_radius = float(1.0 / max(curv.max(), 1e-12))
+        self.guide = goal_spline(start, heading, goals, self.config.sample)
+        self.length = self.guide.length
+        self.min_turn_radius = self.guide.min_turn_radius
         self._arc = 0.0
         self._v = 0.0
         self.done = False
-
-    def _point(self, s: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        s = min(max(s, 0.0), self.length)
-        i = int(np.clip(np.searchsorted(self._s, s) - 1, 0, len(self._s) - 2))
-        ds = self._s[i + 1] - self._s[i]
-        f = 0.0 if ds <= 0 else (s - self._s[i]) / ds
-        p = self._xyz[i] + f * (self._xyz[i + 1] - self._xyz[i])
-        t = (self._xyz[i + 1] - self._xyz[i]) / max(ds, 1e-12)
-        return p, t
 
     def step(
         self,
@@ -100,6 +71,9 @@ class ScriptedPlanner:
         reading: object | None = None,
         goal: ArrayLike | None = None,
         goal_tolerance: float | None = None,
+        *,
+        approach: bool = False,
+        next_goal: ArrayLike | None = None,
     ) -> TipCommand:
         """Advance along the curve by one period ``dt`` [s]; the other arguments are ignored."""
         cfg = self.config
@@ -110,5 +84,5 @@ class ScriptedPlanner:
         if self._arc >= self.length - 1e-9:
             self._v = 0.0
             self.done = True
-        p, t = self._point(self._arc)
+        p, t = self.guide.point(self._arc)
         return TipCommand(position=p, velocity=t * self._v, stalled=False)

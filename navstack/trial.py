@@ -6,7 +6,7 @@ state.  The obstacles go to the simulator only: the planner sees the tip
 sensor readings, the controller sees the tip command and the robot's own
 state.
 
-Per control step (``ServoConfig.control_hz``, default 60 Hz):
+Per control step (``ServoConfig.control_hz``, default 30 Hz):
 
 1. read the measured joints, the actual tip; advance the goal index when the
    actual tip is within the current goal's tolerance,
@@ -37,6 +37,8 @@ from typing import Any
 import numpy as np
 
 from navstack.jpl import BACKBONE_FRAMES, jpl_serpentine
+from navstack.planner import PlannerConfig
+from navstack.sensing import SensorConfig
 from navstack.sim.servo import ServoConfig
 
 CONTROLLERS = ("slither", "tip-only")
@@ -49,6 +51,10 @@ class TrialConfig:
     """Everything that sets up a trial besides the world, controller, planner and seed."""
 
     servo: ServoConfig = field(default_factory=ServoConfig)
+    sensor: SensorConfig = field(default_factory=SensorConfig)
+    """The tip proximity sensor (``--planner field``)."""
+    field_planner: PlannerConfig = field(default_factory=PlannerConfig)
+    """The potential-field planner's parameters (``--planner field``)."""
     slither_mode: str = "projected"
     """Slithering task form for ``--controller slither``: ``projected`` (2 rows per joint point) or ``full``."""
     scripted_speed: float = 0.06
@@ -244,14 +250,17 @@ class _Simulation:
             self.planner = ScriptedPlanner(tip0, heading0, self.goals, ScriptedConfig(speed=cfg.scripted_speed))
         else:
             from navstack.estimate import RangeEstimator
+            from navstack.guide import goal_spline
             from navstack.planner import PotentialFieldPlanner
-            from navstack.sensing import SensorConfig
             from navstack.sim.rays import RaySensor
 
-            sensor_cfg = SensorConfig()
+            sensor_cfg = cfg.sensor
             self.sensor = RaySensor(self.client, sensor_cfg, self.body.body_id, self.rng)
             self.estimator = RangeEstimator(sensor_cfg)
-            self.planner = PotentialFieldPlanner(start=tip0, heading=heading0)
+            self.planner = PotentialFieldPlanner(
+                cfg.field_planner,
+                start=tip0, heading=heading0, guide=goal_spline(tip0, heading0, self.goals)
+            )
         self.trajectory = Trajectory()
         self.goal_index = 0
         self.steps = 0
@@ -311,8 +320,16 @@ class _Simulation:
                 tip_T = self.T0 @ F[21]
                 raw = self.sensor.read(tip_T)
                 reading = self.estimator.update(raw, self.dt)
+            last = self.goal_index == len(self.goals) - 1
             cmd = self.planner.step(
-                self.dt, tip, self.R0 @ F[20, :3, 0], reading, goal, float(self.tolerances[self.goal_index])
+                self.dt,
+                tip,
+                self.R0 @ F[20, :3, 0],
+                reading,
+                goal,
+                float(self.tolerances[self.goal_index]),
+                approach=last,
+                next_goal=None if last else self.goals[self.goal_index + 1],
             )
             if cmd.stalled:
                 return "collision" if self.contacts else "stalled"

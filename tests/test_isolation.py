@@ -28,7 +28,7 @@ import numpy as np
 import pytest
 
 PKG = Path(__file__).resolve().parents[1] / "navstack"
-CORE = ("planner", "estimate", "sensing", "control", "path", "kinematics")
+CORE = ("planner", "guide", "estimate", "sensing", "control", "path", "kinematics")
 FORBIDDEN = (
     "pybullet", "pybullet_utils", "pybullet_data", "trimesh",
     "navstack.world", "navstack.sim", "navstack.trial", "navstack.generate", "navstack.truss",
@@ -268,3 +268,19 @@ def test_controller_and_path_memory_reject_a_world(a_world):
         SlitherController(jpl_serpentine(), a_world)
     with pytest.raises(Exception):  # noqa: B017
         PathMemory(a_world)
+
+
+def test_importing_the_core_loads_no_simulator() -> None:
+    """At run time too: importing every core module leaves pybullet and trimesh unloaded."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        + "".join(f"import navstack.{m}\n" for m in CORE)
+        + "bad = sorted(m for m in sys.modules if m.split('.')[0] in ('pybullet', 'pybullet_utils', 'trimesh')"
+        " or m in ('navstack.world', 'navstack.trial') or m.startswith('navstack.sim'))\n"
+        "print(','.join(bad))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "", f"importing the core loaded: {out.stdout.strip()}"

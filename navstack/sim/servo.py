@@ -7,7 +7,7 @@ joint, with explicit per-joint force limits and gains, fed both the desired
 position and the desired velocity (feed-forward).
 
 Rates: physics at ``physics_hz`` (default 240 Hz), the controller at
-``control_hz`` (default 60 Hz); one control step = ``substeps`` physics steps.
+``control_hz`` (default 30 Hz); one control step = ``substeps`` physics steps.
 Within a control period the set-point is interpolated linearly from the
 previous theta_d to the new one (a first-order hold), so the motors never see
 a stale position paired with a non-zero velocity.  Each physics step gets the
@@ -36,7 +36,7 @@ class ServoConfig:
     """
 
     physics_hz: float = 240.0
-    control_hz: float = 60.0
+    control_hz: float = 30.0
     position_gain: float = 0.6
     velocity_gain: float = 1.0
     lathe_force: float = 5000.0
