@@ -66,10 +66,12 @@ def _demo(args: argparse.Namespace) -> int:
 
 
 def _check_world(args: argparse.Namespace) -> int:
+    from navstack.trial import check_reach
     from navstack.world import load_world
 
     for path in args.files:
         w = load_world(path)
+        check_reach(w)
         print(f"{path}: ok ({w.name}: {len(w.obstacles)} obstacles, {len(w.goals)} goals, time limit {w.time_limit} s)")
     return EXIT_OK
 

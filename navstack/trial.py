@@ -164,6 +164,7 @@ def run_trial(
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
 
+    check_reach(world)
     sim = _Simulation(world, controller, planner, int(seed), cfg)
     wall0 = time.perf_counter()
     try:
@@ -180,6 +181,36 @@ def run_trial(
         sim.finish_partial()
     result = _save(out, sim, reason, error, time.perf_counter() - wall0, render=render)
     return result
+
+
+def check_reach(world) -> None:
+    """Refuse goals that no configuration can reach (``ValueError`` naming the goal).
+
+    A conservative test: a goal farther from the lathe bed's travel (the segment swept by frame 1 over
+    the lathe's joint range) than the sum of the fixed distances between consecutive frame origins 1..21
+    (an upper bound on the reach of everything beyond the lathe) is out of reach whatever the joints do.
+    """
+    chain = jpl_serpentine()
+    T0 = world.robot.base.transform()
+    q = chain.check(world.robot.q0).copy()
+    ends = []
+    for value in (chain.lower[0], chain.upper[0]):
+        q[0] = value
+        ends.append(T0[:3, :3] @ chain.frames(q)[1, :3, 3] + T0[:3, 3])
+    origins = chain.frames(np.zeros(chain.n))[1:, :3, 3]
+    reach = float(np.linalg.norm(np.diff(origins, axis=0), axis=1).sum())
+    a, b = ends
+    ab = b - a
+    for k, goal in enumerate(world.goals):
+        g = np.asarray(goal.position, dtype=np.float64)
+        t = float(np.clip((g - a) @ ab / max(float(ab @ ab), 1e-12), 0.0, 1.0))
+        dist = float(np.linalg.norm(g - (a + t * ab)))
+        if dist > reach + goal.tolerance:
+            where = world.source if world.source is not None else world.name
+            raise ValueError(
+                f"{where}: goals[{k}].position {np.round(g, 3).tolist()} is {dist:.2f} m from the lathe bed's "
+                f"travel, beyond the robot's reach ({reach:.2f} m): no configuration reaches it"
+            )
 
 
 def _save(out: Path | None, sim: _Simulation, reason: str, error: str | None, wall: float, render: bool):

@@ -122,3 +122,43 @@ def test_cli_run_writes_outputs_and_exit_codes(tmp_path, capsys):
 def test_bad_trial_arguments(kwargs, message):
     with pytest.raises(ValueError, match=message):
         run_trial(world_from_dict(paper_truss_world()), **kwargs)
+
+
+def test_goal_out_of_reach_is_bad_input(tmp_path, capsys):
+    data = paper_truss_world()
+    data["goals"][2]["position"] = [9.0, 0.1, 1.2]
+    with pytest.raises(ValueError, match=r"goals\[2\]\.position .* beyond the robot's reach"):
+        run_trial(world_from_dict(data), planner="scripted")
+    path = tmp_path / "far.json"
+    path.write_text(json.dumps(data))
+    assert main(["run", str(path), "--out", str(tmp_path / "o")]) == 2
+    assert "far.json" in capsys.readouterr().err
+    assert main(["check-world", str(path)]) == 2
+    assert "beyond the robot's reach" in capsys.readouterr().err
+
+
+def test_joint_limit_is_reported():
+    """A goal within the reach bound but past the lathe bed's travel along its axis: the lathe pins at its
+    limit while the tip lags its command, and the trial ends with reason joint_limit."""
+    data = paper_truss_world()
+    data["obstacles"] = []
+    tip = np.array(data["goals"][0]["position"])
+    data["goals"] = [{"position": (tip + [2.3, 0.0, 0.0]).tolist(), "tolerance": 0.02}]
+    data["time_limit"] = 120.0
+    r = run_trial(world_from_dict(data), planner="scripted")
+    print(f"far goal: {r.reason} after {r.sim_time:.1f} s, goals {r.goals_reached}")
+    assert r.reason == "joint_limit" and not r.success and r.sim_time < 110.0
+
+
+@pytest.mark.parametrize("name", ["paper_truss", "truss_displaced", "truss_clutter", "u_trap", "pipe_rack"])
+def test_field_planner_reaches_every_goal_of_the_issue_worlds(name):
+    """Closed loop with the sensor-based planner (no script) on the issue's worlds."""
+    world = load_world(WORLDS / f"{name}.json")
+    r = run_trial(world, planner="field")
+    m = r.metrics
+    print(f"{name} slither/field: {r.reason}, goals {r.goals_reached}/{len(world.goals)}, sim {r.sim_time:.1f} s, "
+          f"min clearance {m['min_clearance'] * 1e3:.1f} mm, "
+          f"slither deviation {m['slither_deviation_max'] * 1e3:.2f} mm")
+    assert r.success and r.reason == "reached" and r.goals_reached == len(world.goals)
+    assert m["contacts"] == 0 and m["min_clearance"] > 0.0
+    assert m["slither_deviation_max"] <= 0.001 and m["tip_error_max"] <= 0.005
