@@ -368,8 +368,11 @@ class _Simulation:
             v_d = np.asarray(cmd.velocity, dtype=np.float64)
             if not (np.isfinite(x_d).all() and np.isfinite(v_d).all()):
                 raise FloatingPointError(f"planner produced a non-finite tip command at step {self.steps}")
+            # equation (4) is evaluated at time t: the command of the previous step x_d(t) with the rate
+            # v_d over [t, t + dt]; it returns theta_d(t + dt), whose tip is the new command x_d(t + dt)
+            # (passing the new command itself would make theta_d lead it by one period, v_d * dt)
+            theta_d = self.controller.step(self._to_base(self.tip_des), self.R0.T @ v_d)
             self.tip_des = x_d
-            theta_d = self.controller.step(self._to_base(x_d), self.R0.T @ v_d)
             self.servo.command(theta_d, self.controller.thetadot_d)
             self.servo.step()
             self.steps += 1
