@@ -67,13 +67,19 @@ def _demo(args: argparse.Namespace) -> int:
 
 def _check_world(args: argparse.Namespace) -> int:
     from navstack.trial import check_reach
-    from navstack.world import load_world
+    from navstack.world import WorldError, load_world
 
+    status = EXIT_OK
     for path in args.files:
-        w = load_world(path)
-        check_reach(w)
+        try:
+            w = load_world(path)
+            check_reach(w)
+        except (WorldError, ValueError, OSError) as exc:
+            print(f"navstack check-world: error: {exc}", file=sys.stderr)
+            status = EXIT_BAD_INPUT
+            continue
         print(f"{path}: ok ({w.name}: {len(w.obstacles)} obstacles, {len(w.goals)} goals, time limit {w.time_limit} s)")
-    return EXIT_OK
+    return status
 
 
 def _generate(args: argparse.Namespace) -> int:
@@ -93,11 +99,9 @@ def _trials(args: argparse.Namespace) -> int:
 
 
 def _report(args: argparse.Namespace) -> int:
-    from navstack.report import write_report
+    from navstack.report import run_from_args
 
-    path = write_report(args.dir)
-    print(f"wrote {path}")
-    return EXIT_OK
+    return run_from_args(args)
 
 
 def _model(args: argparse.Namespace) -> int:
@@ -164,7 +168,9 @@ def build_parser() -> argparse.ArgumentParser:
     t.set_defaults(func=_trials)
 
     rp = sub.add_parser("report", help="summarise DIR/results.jsonl into DIR/report.md and PNG plots")
-    rp.add_argument("dir")
+    from navstack.report import add_arguments as add_report_arguments
+
+    add_report_arguments(rp)
     rp.set_defaults(func=_report)
 
     m = sub.add_parser("model", help="print the robot model (Figure 2 in metres) and the default posture")
@@ -179,7 +185,7 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         return args.func(args)
-    except (WorldError, BadInput, ValueError, FileNotFoundError) as exc:
+    except (WorldError, BadInput, ValueError, OSError) as exc:  # OSError: an unusable --out or input path
         print(f"navstack {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:

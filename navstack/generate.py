@@ -431,13 +431,11 @@ def _samples(robot: _Robot, via: FloatArray, cfg: CheckConfig) -> _Samples:
 
 def start_clearance(world: World, max_distance: float = 0.5) -> float:
     """PyBullet clearance [m] of the robot at ``q0`` to the obstacles (``Scene.clearance``)."""
-    import pybullet
-    from pybullet_utils.bullet_client import BulletClient
-
+    from navstack.sim._bullet import direct_client
     from navstack.sim.body import RobotBody
     from navstack.sim.scene import Scene
 
-    client = BulletClient(connection_mode=pybullet.DIRECT)
+    client = direct_client()
     try:
         body = RobotBody.build(client, jpl_serpentine(), world.robot.base.transform(),
                                serpentine_radius=world.robot.serpentine_radius,

@@ -11,7 +11,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-import pybullet
+
+from navstack.sim._bullet import pybullet
 
 
 def _project(view, proj, pts: np.ndarray, width: int, height: int) -> np.ndarray:

@@ -185,8 +185,8 @@ class SweepConfig:
             if len(set(values)) != len(values):
                 raise SweepError(f"sweep config: {name} has duplicates: {list(values)}")
         for d in self.difficulties:
-            if not math.isfinite(d) or d < 0:
-                raise SweepError(f"sweep config: difficulty must be finite and >= 0, got {d!r}")
+            if not math.isfinite(d) or not 0 <= d <= 1:
+                raise SweepError(f"sweep config: difficulty must be in [0, 1], got {d!r}")
         for f in self.families:
             if not f or "__" in f or "/" in f or f != f.strip():
                 raise SweepError(f"sweep config: bad family name {f!r} (non-empty, no '/', no '__')")
@@ -218,8 +218,8 @@ def _known_families() -> tuple[str, ...]:
 def _world_file_info(path: Path) -> tuple[str | None, float | None]:
     """(family, difficulty) of a world file, read without full validation (the trial validates)."""
     try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
+        text = path.read_text(encoding="utf-8-sig")
+    except (OSError, UnicodeDecodeError) as exc:
         raise SweepError(f"{path}: cannot read world file: {exc}") from exc
     try:
         data = json.loads(text)
@@ -232,6 +232,8 @@ def _world_file_info(path: Path) -> tuple[str | None, float | None]:
         raise SweepError(f"{path}: 'family' must be a string, got {family!r}")
     extra = data.get("extra")
     difficulty = extra.get("difficulty") if isinstance(extra, dict) else None
+    if difficulty is None and isinstance(extra, dict) and isinstance(extra.get("generator"), dict):
+        difficulty = extra["generator"].get("difficulty")  # a world written by navstack generate
     if isinstance(difficulty, bool) or not isinstance(difficulty, int | float):
         difficulty = None
     return family, (float(difficulty) if difficulty is not None else None)
@@ -560,9 +562,11 @@ class SweepSummary:
 
 
 def _error_record(spec: TrialSpec, message: str, wall_time: float, tb: str | None = None) -> dict[str, Any]:
+    """A trial that crashed, hung or could not start: no steps were recorded (counts 0), its metrics are
+    unknown (``null``), ``error`` says why and ``traceback`` where."""
     rec: dict[str, Any] = {
         "world": spec.world_id, "seed": spec.seed, "controller": spec.controller, "planner": spec.planner,
-        "success": False, "reason": "error", "goals_reached": None, "sim_time": None, "steps": None,
+        "success": False, "reason": "error", "goals_reached": 0, "sim_time": 0.0, "steps": 0,
         "wall_time": round(wall_time, 6), "metrics": {k: None for k in METRIC_KEYS}, "error": message,
     }
     if tb:

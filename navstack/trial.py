@@ -144,27 +144,29 @@ def run_trial(
 ) -> TrialResult:
     """Run one closed-loop trial headless and return its result.
 
-    ``world`` is a :class:`navstack.world.World` or a path to a world file.
+    ``world`` is a :class:`navstack.world.World`, a path to a world file, or a parsed world dict.
     With ``out_dir`` the trial writes ``result.json`` and ``trajectory.npz``
     there (and ``scene.png`` with ``render=True``).  Bad input (an unreadable
     world, an unknown controller or planner) raises ``WorldError`` /
     ``ValueError``; a failure inside the simulation is returned as reason
     ``error`` with the message in ``error``.
     """
-    from navstack.world import World, load_world
+    from navstack.world import World, load_world, world_from_dict
 
     _check_choice("controller", controller, CONTROLLERS)
     _check_choice("planner", planner, PLANNERS)
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
     cfg = config or TrialConfig()
-    if not isinstance(world, World):
+    if isinstance(world, dict):
+        world = world_from_dict(world)
+    elif not isinstance(world, World):
         world = load_world(world)
+    check_reach(world)
     out = Path(out_dir) if out_dir is not None else None
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
 
-    check_reach(world)
     sim = _Simulation(world, controller, planner, int(seed), cfg)
     wall0 = time.perf_counter()
     try:
@@ -230,10 +232,8 @@ class _Simulation:
     """The PyBullet side and the pipeline objects of one trial."""
 
     def __init__(self, world, controller: str, planner: str, seed: int, cfg: TrialConfig) -> None:
-        import pybullet
-        from pybullet_utils.bullet_client import BulletClient
-
         from navstack.control import ControlConfig, SlitherController
+        from navstack.sim._bullet import direct_client
         from navstack.sim.body import RobotBody
         from navstack.sim.scene import Scene
         from navstack.sim.servo import JointServo
@@ -244,7 +244,7 @@ class _Simulation:
         self.seed = seed
         self.cfg = cfg
         self.chain = jpl_serpentine()
-        self.client = BulletClient(connection_mode=pybullet.DIRECT)
+        self.client = direct_client()
         robot = world.robot
         self.T0 = robot.base.transform()
         self.R0 = self.T0[:3, :3]
@@ -335,7 +335,7 @@ class _Simulation:
         q, _ = self.body.joint_state()
         tip = self._measure(q)
         self._record(q, self.q0)
-        limit_steps = int(np.ceil(self.world.time_limit / self.dt))
+        limit_steps = int(np.floor(self.world.time_limit / self.dt + 1e-9))  # never beyond time_limit
         pinned_steps = int(np.ceil(self.cfg.joint_limit_time / self.dt))
         pinned = 0
         while True:

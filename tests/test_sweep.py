@@ -136,6 +136,7 @@ def test_worlds_dir_specs_read_family_and_difficulty(tmp_path):
     ({"families": ("truss",), "controllers": ("snake",)}, "controller 'snake'"),
     ({"families": ("truss",), "planners": ()}, "planners"),
     ({"families": ("truss", "truss")}, "duplicates"),
+    ({"families": ("truss",), "difficulties": (1.5,)}, "difficulty must be in"),
     ({}, "exactly one"),
     ({"families": ("truss",), "worlds_dir": "x"}, "exactly one"),
 ])

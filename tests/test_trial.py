@@ -162,3 +162,29 @@ def test_field_planner_reaches_every_goal_of_the_issue_worlds(name):
     assert r.success and r.reason == "reached" and r.goals_reached == len(world.goals)
     assert m["contacts"] == 0 and m["min_clearance"] > 0.0
     assert m["slither_deviation_max"] <= 0.001 and m["tip_error_max"] <= 0.005
+
+
+def test_no_success_after_the_time_limit():
+    """The scripted demo needs 22.07 s; with a limit of 22.05 s it must end in timeout, not after the limit."""
+    data = paper_truss_world()
+    data["time_limit"] = 22.05
+    r = run_trial(world_from_dict(data), planner="scripted")
+    assert r.sim_time <= 22.05 + 1e-9
+    assert r.reason == "timeout" and not r.success
+
+
+def test_check_world_reports_every_bad_file(tmp_path, capsys):
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"format": "navstack-world/1"}')
+    good = WORLDS / "u_trap.json"
+    assert main(["check-world", str(bad), str(good), str(tmp_path / "missing.json")]) == 2
+    captured = capsys.readouterr()
+    assert "u_trap.json: ok" in captured.out
+    assert "bad.json" in captured.err and "missing.json" in captured.err
+
+
+def test_run_into_a_file_is_bad_input(tmp_path, capsys):
+    target = tmp_path / "taken"
+    target.write_text("")
+    assert main(["run", str(WORLDS / "u_trap.json"), "--out", str(target), "--planner", "scripted"]) == 2
+    assert "taken" in capsys.readouterr().err

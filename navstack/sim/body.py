@@ -21,11 +21,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import pybullet
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
 from navstack.kinematics import Chain
+from navstack.sim._bullet import pybullet
 
 ARM_COLOUR = (0.85, 0.55, 0.15, 1.0)
 SERPENTINE_COLOUR = (0.2, 0.6, 0.25, 1.0)

@@ -39,9 +39,9 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import pybullet as p
 from scipy.spatial.transform import Rotation
 
+from navstack.sim._bullet import pybullet as p
 from navstack.world import Box, Cylinder, Mesh, Obstacle, Sphere, World, WorldError
 
 MAX_COMPOUND_CHILDREN = 16

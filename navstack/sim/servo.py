@@ -21,9 +21,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import pybullet
 from numpy.typing import ArrayLike
 
+from navstack.sim._bullet import pybullet
 from navstack.sim.body import RobotBody
 
 
