@@ -61,7 +61,10 @@ Each step:
    ``repulsion_gain (1/rho_min - 1/rho0) / (1/safety_distance - 1/rho0)``,
    faded out within ``goal_repulsion_radius`` of the goal.
 4. **Look ahead** (on the guide: only if a known point lies in the tube along the
-   guide itself, shifted through ``x_d``; a straight tube is no forecast on a curve):
+   guide itself, shifted through ``x_d``; a straight tube is no forecast on a curve, and the
+   push is scaled by how deep the points reach into that guide tube, quadratically from none
+   at its edge to full where the tip would hit them, so a member beside a curved guide does
+   not push the tip off a bend it cannot rejoin before the goal):
    points inside the forward tube (radius ``body_radius +
    tube_margin``, length ``lookahead``, in goal mode not beyond the goal) push
    the heading sideways, away from them, with full weight inside one turn
@@ -707,10 +710,11 @@ class PotentialFieldPlanner:
                 # leads into an obstacle, so for this goal the field alone steers
                 self._guide_blocked = True
                 on_guide = False
-            if on_guide and self._guide_tube_clear(x, P, horizon, cfg.body_radius + cfg.tube_margin):
-                # the straight tube ahead is no forecast on a curved guide: nothing known lies
-                # in the tube along the guide (shifted by the current deviation), so no push
-                F_avoid = np.zeros(3)
+            if on_guide:
+                # the straight tube ahead is no forecast on a curved guide: the push is scaled by
+                # how deep known points reach into the tube along the guide (shifted by the current
+                # deviation): none if it is clear, full where the tip would hit them
+                F_avoid = F_avoid * self._guide_tube_intrusion(x, P, horizon)
             # on the guide: pursue it; off it (an obstacle pushed the tip away): head for the goal
             e_aim = e_guide if on_guide else self._aim_direction(x, h, g, e, dist, g_next)
             if on_guide and not cfg.guide_gap_centering:
@@ -897,18 +901,41 @@ class PotentialFieldPlanner:
                           tube: float) -> bool:
         """True if no memory point lies in the tube of radius ``tube`` along the next ``horizon``
         metres of the guide, shifted to pass through ``x``."""
+        return self._guide_tube_distance(x, P, horizon, tube) >= tube
+
+    def _guide_tube_distance(self, x: NDArray[np.float64], P: NDArray[np.float64], horizon: float,
+                             reach: float) -> float:
+        """Smallest distance [m] of a memory point from the next ``horizon`` metres of the guide,
+        shifted to pass through ``x`` (inf if none lies within ``reach`` of ``x``'s neighbourhood)."""
         guide = self.guide
         assert guide is not None
         if P.shape[0] == 0:
-            return True
-        P = P[np.linalg.norm(P - x, axis=1) < horizon + tube]
+            return np.inf
+        P = P[np.linalg.norm(P - x, axis=1) < horizon + reach]
         if P.shape[0] == 0:
-            return True
+            return np.inf
         p0, _ = guide.point(self.guide_s)
         ss = np.arange(self.guide_s, min(self.guide_s + horizon, guide.length) + 1e-9, 0.01)
         centre = np.array([guide.point(si)[0] for si in ss]) + (x - p0)
         d2 = ((P[:, None, :] - centre[None, :, :]) ** 2).sum(axis=2)
-        return bool(d2.min() >= tube * tube)
+        return float(np.sqrt(d2.min()))
+
+    def _guide_tube_intrusion(self, x: NDArray[np.float64], P: NDArray[np.float64], horizon: float) -> float:
+        """How deep known points reach into the tube along the guide (shifted through ``x``):
+        0 if none lies within ``body_radius + tube_margin`` of it, 1 for a point the tip would hit
+        (within ``body_radius + 0.005``), growing quadratically in between.
+
+        On the guide this scales the straight-tube look-ahead push: a member passing beside a
+        curved guide lies in the straight tube (and is already handled by the repulsion), and a
+        full sideways push there drives the tip off a guide it cannot rejoin before the goal."""
+        cfg = self.config
+        tube = cfg.body_radius + cfg.tube_margin
+        hit = cfg.body_radius + 0.005
+        dmin = self._guide_tube_distance(x, P, horizon, tube)
+        if not np.isfinite(dmin) or dmin >= tube:
+            return 0.0
+        f = float(np.clip((tube - dmin) / max(tube - hit, 1e-9), 0.0, 1.0))
+        return f * f
 
     def _aim_direction(self, x: NDArray[np.float64], h: NDArray[np.float64], g: NDArray[np.float64],
                        e: NDArray[np.float64], dist: float, g_next: NDArray[np.float64] | None
