@@ -62,6 +62,11 @@ class GuidePath:
         d = self.points[i + 1] - self.points[i]
         return self.points[i] + f * d, d / max(float(ds), 1e-12)
 
+    def positions(self, s: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Positions (n, 3) [m] at the arc lengths ``s`` (n,) (clamped to the curve), vectorised."""
+        s = np.clip(s, 0.0, self.length)
+        return np.stack([np.interp(s, self.arc, self.points[:, k]) for k in range(3)], axis=1)
+
     def project(self, x: ArrayLike, s_lo: float, s_hi: float) -> tuple[float, float]:
         """Arc length of the sample nearest to ``x`` within ``[s_lo, s_hi]``, and its distance [m].
 

@@ -208,6 +208,9 @@ class TipPlanner(Protocol):
         ...
 
 
+_GUIDE_HIT = 0.005
+"""A known point within ``body_radius + _GUIDE_HIT`` [m] of the guide ahead blocks it (the tip would hit)."""
+
 _POSITIVE = "positive"
 _NONNEG = "nonneg"
 
@@ -254,8 +257,6 @@ class PlannerConfig:
             to the goal (larger = the tip lines up with the corner's bisector earlier).
         guide_lookahead: with a guide (the goal spline), the carrot is this far ahead of the
             nearest guide point along the guide [m] (pure pursuit).
-        guide_gap_centering: centre in openings also while on the guide (off: on the guide the
-            goal spline is trusted and only the repulsion and the look-ahead deflect the tip).
         guide_capture: the tip counts as on the guide within this distance of it [m]; then the
             guide's feasible curvature is trusted (no turning-circle or reachability override).
         goal_guard: fraction of the largest deflection from the goal direction that still
@@ -301,7 +302,6 @@ class PlannerConfig:
     goal_guard: float = 0.8
     guide_lookahead: float = 0.05
     guide_capture: float = 0.05
-    guide_gap_centering: bool = True
     corner_lead: float = 0.2
     corner_tangent: float = 1.5
     stall_window: float = 10.0
@@ -349,8 +349,6 @@ class PlannerConfig:
                 raise ValueError(f"PlannerConfig.{name} must be an integer >= {lo}, got {v!r}")
         if not 0.0 < self.goal_guard <= 1.0:
             raise ValueError(f"PlannerConfig.goal_guard must be in (0, 1], got {self.goal_guard}")
-        if not isinstance(self.guide_gap_centering, (bool, np.bool_)):
-            raise ValueError(f"PlannerConfig.guide_gap_centering must be a bool, got {self.guide_gap_centering!r}")
         if not isinstance(self.gap_centering, (bool, np.bool_)):
             raise ValueError(f"PlannerConfig.gap_centering must be a bool, got {self.gap_centering!r}")
         if not isinstance(self.estimator, EstimatorConfig):
@@ -705,23 +703,21 @@ class PotentialFieldPlanner:
         else:
             e_guide = self._guide_aim(x, g)
             on_guide = e_guide is not None and self.guide_deviation <= cfg.guide_capture
-            if on_guide and not self._guide_tube_clear(x, P, horizon, cfg.body_radius + 0.005):
-                # something sits on the guide itself (the tip would hit it): the goal spline
-                # leads into an obstacle, so for this goal the field alone steers
-                self._guide_blocked = True
-                on_guide = False
             if on_guide:
-                # the straight tube ahead is no forecast on a curved guide: the push is scaled by
-                # how deep known points reach into the tube along the guide (shifted by the current
-                # deviation): none if it is clear, full where the tip would hit them
-                F_avoid = F_avoid * self._guide_tube_intrusion(x, P, horizon)
+                dmin = self._guide_tube_distance(x, P, horizon, cfg.body_radius + cfg.tube_margin)
+                if dmin < cfg.body_radius + _GUIDE_HIT:
+                    # something sits on the guide itself (the tip would hit it): the goal spline
+                    # leads into an obstacle, so for this goal the field alone steers
+                    self._guide_blocked = True
+                    on_guide = False
+                else:
+                    # the straight tube ahead is no forecast on a curved guide: the push is scaled
+                    # by how deep known points reach into the tube along the guide (shifted by the
+                    # current deviation): none if it is clear, full where the tip would hit them
+                    F_avoid = F_avoid * self._guide_tube_intrusion(dmin)
             # on the guide: pursue it; off it (an obstacle pushed the tip away): head for the goal
             e_aim = e_guide if on_guide else self._aim_direction(x, h, g, e, dist, g_next)
-            if on_guide and not cfg.guide_gap_centering:
-                F_att = e_aim
-                self.gap_offset = np.zeros(3)
-            else:
-                F_att = self._attraction(x, h, e, e_aim, dist, P, dt)
+            F_att = self._attraction(x, h, e, e_aim, dist, P, dt)
             D = F_att + F_rep + F_avoid
             u = _unit(D)
             d = h.copy() if u is None else u
@@ -897,44 +893,33 @@ class PotentialFieldPlanner:
         carrot, _ = guide.point(min(s + cfg.guide_lookahead, s_goal))
         return _unit(carrot - x)
 
-    def _guide_tube_clear(self, x: NDArray[np.float64], P: NDArray[np.float64], horizon: float,
-                          tube: float) -> bool:
-        """True if no memory point lies in the tube of radius ``tube`` along the next ``horizon``
-        metres of the guide, shifted to pass through ``x``."""
-        return self._guide_tube_distance(x, P, horizon, tube) >= tube
-
     def _guide_tube_distance(self, x: NDArray[np.float64], P: NDArray[np.float64], horizon: float,
                              reach: float) -> float:
         """Smallest distance [m] of a memory point from the next ``horizon`` metres of the guide,
-        shifted to pass through ``x`` (inf if none lies within ``reach`` of ``x``'s neighbourhood)."""
+        shifted to pass through ``x``; exact below ``reach``, inf if no point is that close."""
         guide = self.guide
         assert guide is not None
-        if P.shape[0] == 0:
-            return np.inf
         P = P[np.linalg.norm(P - x, axis=1) < horizon + reach]
         if P.shape[0] == 0:
             return np.inf
-        p0, _ = guide.point(self.guide_s)
         ss = np.arange(self.guide_s, min(self.guide_s + horizon, guide.length) + 1e-9, 0.01)
-        centre = np.array([guide.point(si)[0] for si in ss]) + (x - p0)
+        centre = guide.positions(ss) + (x - guide.positions(np.array([self.guide_s]))[0])
         d2 = ((P[:, None, :] - centre[None, :, :]) ** 2).sum(axis=2)
         return float(np.sqrt(d2.min()))
 
-    def _guide_tube_intrusion(self, x: NDArray[np.float64], P: NDArray[np.float64], horizon: float) -> float:
-        """How deep known points reach into the tube along the guide (shifted through ``x``):
-        0 if none lies within ``body_radius + tube_margin`` of it, 1 for a point the tip would hit
-        (within ``body_radius + 0.005``), growing quadratically in between.
+    def _guide_tube_intrusion(self, dmin: float) -> float:
+        """How deep the nearest known point (at ``dmin`` [m] from the guide ahead, shifted through
+        ``x_d``) reaches into the tube along the guide: 0 at or beyond ``body_radius + tube_margin``,
+        1 for a point the tip would hit (within ``body_radius + 0.005``), quadratic in between.
 
         On the guide this scales the straight-tube look-ahead push: a member passing beside a
         curved guide lies in the straight tube (and is already handled by the repulsion), and a
         full sideways push there drives the tip off a guide it cannot rejoin before the goal."""
         cfg = self.config
         tube = cfg.body_radius + cfg.tube_margin
-        hit = cfg.body_radius + 0.005
-        dmin = self._guide_tube_distance(x, P, horizon, tube)
-        if not np.isfinite(dmin) or dmin >= tube:
+        if dmin >= tube:
             return 0.0
-        f = float(np.clip((tube - dmin) / max(tube - hit, 1e-9), 0.0, 1.0))
+        f = float(np.clip((tube - dmin) / max(tube - _GUIDE_HIT - cfg.body_radius, 1e-9), 0.0, 1.0))
         return f * f
 
     def _aim_direction(self, x: NDArray[np.float64], h: NDArray[np.float64], g: NDArray[np.float64],

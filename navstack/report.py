@@ -181,7 +181,23 @@ def _fam_key(f: str) -> tuple[bool, str]:
     return (f == NO_FAMILY, f)
 
 
-def summarize(records: Iterable[Mapping[str, Any]]) -> Summary:
+def _check_records(records: Sequence[Mapping[str, Any]], where, short=None) -> None:
+    """Raise :class:`ReportError` at the first malformed record or repeated ``trial_id``; ``where(i)`` names
+    record ``i`` in the message (``short(i)`` when it is named a second time)."""
+    short = short or where
+    seen: dict[str, int] = {}
+    for i, rec in enumerate(records):
+        why = _check_record(rec)
+        if why is not None:
+            raise ReportError(f"{where(i)}: {why}")
+        tid = rec.get("trial_id")
+        if tid is not None:
+            if tid in seen:
+                raise ReportError(f"{where(i)}: trial_id {tid!r} already on {short(seen[tid])}")
+            seen[tid] = i
+
+
+def summarize(records: Iterable[Mapping[str, Any]], *, checked: bool = False) -> Summary:
     """Success rates, failure causes and metric distributions of result records (pure; see module doc).
 
     Raises :class:`ReportError` naming the record index (0-based) for an invalid record or a repeated
@@ -190,16 +206,8 @@ def summarize(records: Iterable[Mapping[str, Any]]) -> Summary:
     records = list(records)
     if not records:
         raise ReportError("no trial results to summarise")
-    seen: set[str] = set()
-    for i, rec in enumerate(records):
-        why = _check_record(rec)
-        if why is not None:
-            raise ReportError(f"record {i}: {why}")
-        tid = rec.get("trial_id")
-        if tid is not None:
-            if tid in seen:
-                raise ReportError(f"record {i}: trial_id {tid!r} appears twice")
-            seen.add(tid)
+    if not checked:
+        _check_records(records, lambda i: f"record {i}")
 
     def method(r: Mapping[str, Any]) -> tuple[str, str]:
         return (r["controller"], r["planner"])
@@ -273,16 +281,8 @@ def load_results(path: str | Path) -> Loaded:
         raise ReportError(str(exc)) from exc
     if not rf.records:
         raise ReportError(f"{path}: no trial results in the file (it is empty)")
-    seen: dict[str, int] = {}
-    for rec, line in zip(rf.records, rf.line_numbers, strict=True):
-        why = _check_record(rec)
-        if why is not None:
-            raise ReportError(f"{path}, line {line}: {why}")
-        tid = rec.get("trial_id")
-        if tid is not None:
-            if tid in seen:
-                raise ReportError(f"{path}, line {line}: trial_id {tid!r} already on line {seen[tid]}")
-            seen[tid] = line
+    lines = rf.line_numbers
+    _check_records(rf.records, lambda i: f"{path}, line {lines[i]}", lambda i: f"line {lines[i]}")
     return Loaded(path, rf.records, rf.line_numbers, rf.truncated_tail)
 
 
@@ -478,7 +478,7 @@ def write_report(directory: str | Path, *, plots: bool = True) -> Path:
     if not directory.is_dir():
         raise ReportError(f"{directory}: not a directory")
     loaded = load_results(directory / "results.jsonl")
-    summary = summarize(loaded.records)
+    summary = summarize(loaded.records, checked=True)  # load_results has checked every line
     pngs = write_plots(summary, directory / PLOTS_DIR) if plots else []
     text = render_markdown(summary, plots=[f"{PLOTS_DIR}/{p.name}" for p in pngs],
                            truncated_tail=loaded.truncated_tail)

@@ -3,7 +3,7 @@
 The curve is :func:`navstack.guide.goal_spline`: a cubic spline through the
 start tip position and every goal, parameterised by chord length, leaving the
 start along the tip's current heading (clamped first derivative) so the
-serpentine need not kink on the first step.  It is resampled by arc length and traversed with a trapezoidal
+serpentine need not kink on the first step.  It is traversed by arc length with a trapezoidal
 speed profile (``speed`` [m/s], ``accel`` [m/s^2]).  The smallest radius of
 curvature is reported (``min_turn_radius``); worlds for the scripted planner
 should keep it above about 0.25 m so the serpentine joints stay near 40 deg.
@@ -49,14 +49,7 @@ class ScriptedPlanner:
         config: ScriptedConfig | None = None,
     ) -> None:
         self.config = config or ScriptedConfig()
-        start = np.asarray(start, dtype=np.float64)
-        heading = np.asarray(heading, dtype=np.float64)
-        goals = np.atleast_2d(np.asarray(goals, dtype=np.float64))
-        if start.shape != (3,) or heading.shape != (3,) or goals.shape[1:] != (3,) or len(goals) == 0:
-            raise ValueError("ScriptedPlanner needs a start (3,), a heading (3,) and goals (k, 3)")
-        if not (np.isfinite(start).all() and np.isfinite(heading).all() and np.isfinite(goals).all()):
-            raise ValueError("ScriptedPlanner: start, heading and goals must be finite")
-        self.guide = goal_spline(start, heading, goals, self.config.sample)
+        self.guide = goal_spline(start, heading, goals, self.config.sample)  # ValueError on bad input
         self.length = self.guide.length
         self.min_turn_radius = self.guide.min_turn_radius
         self._arc = 0.0

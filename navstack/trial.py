@@ -311,8 +311,8 @@ class _Simulation:
         return self.R0.T @ (p_world - self.p0)
 
     # ---- the loop ---------------------------------------------------------
-    def _measure(self, q: np.ndarray) -> np.ndarray:
-        """Update metrics from the measured joints ``q``; return the measured tip (world)."""
+    def _measure(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Update metrics from the measured joints ``q``; return the measured tip (world) and the frames."""
         F = self.chain.frames(q)
         tip = self._to_world(F[21, :3, 3])
         clearance = self.scene.clearance(self.body.body_id, self.cfg.clearance_horizon)
@@ -322,7 +322,7 @@ class _Simulation:
         path = self.controller.path
         for f in BACKBONE_FRAMES[1:]:
             self.slither_dev_max = max(self.slither_dev_max, path.distance_to_path(F[f, :3, 3]))
-        return tip
+        return tip, F
 
     def _advance_goals(self, tip: np.ndarray) -> None:
         while self.goal_index < len(self.goals) and (
@@ -333,7 +333,7 @@ class _Simulation:
     def run(self) -> str:
         self.client.performCollisionDetection()
         q, _ = self.body.joint_state()
-        tip = self._measure(q)
+        tip, F = self._measure(q)
         self._record(q, self.q0)
         limit_steps = int(np.floor(self.world.time_limit / self.dt + 1e-9))  # never beyond time_limit
         pinned_steps = int(np.ceil(self.cfg.joint_limit_time / self.dt))
@@ -344,7 +344,6 @@ class _Simulation:
                 return "collision" if self.contacts else "reached"
             if self.steps >= limit_steps:
                 return "collision" if self.contacts else "timeout"
-            F = self.chain.frames(q)
             goal = self.goals[self.goal_index]
             reading = None
             if self.sensor is not None:
@@ -377,7 +376,7 @@ class _Simulation:
             self.servo.step()
             self.steps += 1
             q, _ = self.body.joint_state()
-            tip = self._measure(q)
+            tip, F = self._measure(q)
             self.tip_error_max = max(self.tip_error_max, float(np.linalg.norm(tip - x_d)))
             self._record(q, theta_d)
             at_limit = np.any((theta_d <= self.chain.lower + 1e-6) | (theta_d >= self.chain.upper - 1e-6))
