@@ -124,7 +124,9 @@ def _model(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from navstack.trial import CONTROLLERS, PLANNERS
+    from navstack.registry import controller_names, planner_names
+
+    CONTROLLERS, PLANNERS = controller_names(), planner_names()
 
     p = argparse.ArgumentParser(prog="navstack", description=__doc__.splitlines()[0])
     sub = p.add_subparsers(dest="command", required=True)

@@ -91,11 +91,17 @@ from scipy.spatial.transform import Rotation
 
 from navstack.guide import GuidePath, goal_spline
 from navstack.jpl import BACKBONE_FRAMES, LINK_LENGTH, Q_DEFAULT, jpl_serpentine
+from navstack.registry import FAMILIES as _REGISTERED
 from navstack.truss import PAPER_BASE_RPY, incircle_offset, paper_truss_world, robot_tip_start, truss_members
 from navstack.world import Box, Cylinder, Mesh, Obstacle, Sphere, World, save_world, world_from_dict
 
-FAMILIES = ("truss", "cluttered-truss", "pipe-rack", "sphere-field")
-"""World families :func:`generate_world` knows."""
+
+def _families() -> tuple[str, ...]:
+    return tuple(_REGISTERED)
+
+
+FAMILIES = _families()
+"""World families :func:`generate_world` knows (read from :mod:`navstack.registry`)."""
 
 GENERATOR_VERSION = 1
 """Stored in ``extra.generator.version``; bumped when the same arguments give different worlds."""
@@ -1002,8 +1008,8 @@ def _gen_sphere_field(rng: np.random.Generator, difficulty: float, cfg: CheckCon
 
 
 def _check_args(family: Any, seed: Any, difficulty: Any) -> tuple[str, int, float]:
-    if not isinstance(family, str) or family not in FAMILIES:
-        raise ValueError(f"family must be one of {', '.join(FAMILIES)}; got {family!r}")
+    if not isinstance(family, str) or family not in _REGISTERED:
+        raise ValueError(f"family must be one of {', '.join(_REGISTERED)}; got {family!r}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
     real = (int, float, np.integer, np.floating)
@@ -1021,13 +1027,29 @@ def world_name(family: str, seed: int, difficulty: float) -> str:
     return f"{family}-s{seed:04d}-d{d}"
 
 
+def family_truss(rng: np.random.Generator, difficulty: float, cfg: CheckConfig, robot: _Robot) -> _Candidate:
+    return _gen_truss(rng, difficulty, cfg, robot, clutter=False)
+
+
+def family_cluttered_truss(rng: np.random.Generator, difficulty: float, cfg: CheckConfig,
+                           robot: _Robot) -> _Candidate:
+    return _gen_truss(rng, difficulty, cfg, robot, clutter=True)
+
+
+def family_pipe_rack(rng: np.random.Generator, difficulty: float, cfg: CheckConfig, robot: _Robot) -> _Candidate:
+    return _gen_pipe_rack(rng, difficulty, cfg, robot)
+
+
+def family_sphere_field(rng: np.random.Generator, difficulty: float, cfg: CheckConfig,
+                        robot: _Robot) -> _Candidate:
+    return _gen_sphere_field(rng, difficulty, cfg, robot)
+
+
 def _candidate(family: str, rng: np.random.Generator, difficulty: float, cfg: CheckConfig,
                robot: _Robot) -> _Candidate:
-    if family in ("truss", "cluttered-truss"):
-        return _gen_truss(rng, difficulty, cfg, robot, clutter=family == "cluttered-truss")
-    if family == "pipe-rack":
-        return _gen_pipe_rack(rng, difficulty, cfg, robot)
-    return _gen_sphere_field(rng, difficulty, cfg, robot)
+    from navstack.registry import load
+
+    return load(_REGISTERED[family].factory)(rng, difficulty, cfg, robot)
 
 
 def _finish(cand: _Candidate, name: str, family: str | None, cfg: CheckConfig, robot: _Robot,
@@ -1082,7 +1104,7 @@ def generate_world(family: str, seed: int, difficulty: float = 0.5) -> World:
     name = world_name(family, seed, difficulty)
     last = ""
     for attempt in range(MAX_ATTEMPTS):
-        rng = np.random.default_rng([GENERATOR_VERSION, FAMILIES.index(family), seed, attempt])
+        rng = np.random.default_rng([GENERATOR_VERSION, _REGISTERED[family].seed_id, seed, attempt])
         cand = _candidate(family, rng, difficulty, cfg, robot)
         generator = {"family": family, "seed": seed, "difficulty": difficulty, "version": GENERATOR_VERSION,
                      "attempt": attempt}

@@ -175,12 +175,16 @@ class TipCommand:
         velocity: (3,) commanded tip velocity xdot_d [m/s] (world).
         stalled: True when the planner has given up (the trial should end, reason ``stalled``).
         mode: diagnostic label of the planner's state (e.g. ``goal``, ``follow``, ``hold``).
+        reverse: True when the command runs *back* along the tip's recorded path (a retreat): the
+            slithering controller then drops the retracted part of its path memory instead of
+            recording the command as new path.
     """
 
     position: NDArray[np.float64]
     velocity: NDArray[np.float64]
     stalled: bool
     mode: str = ""
+    reverse: bool = False
 
 
 @runtime_checkable

@@ -76,8 +76,6 @@ from pathlib import Path
 from typing import Any
 
 SWEEP_FORMAT = "navstack-sweep/1"
-CONTROLLERS: tuple[str, ...] = ("slither", "tip-only")
-PLANNERS: tuple[str, ...] = ("field", "scripted")
 DEFAULT_TRIAL_TIMEOUT = 600.0
 """Default per-trial wall-clock limit (s), counted from the moment a worker receives the trial."""
 
@@ -190,6 +188,8 @@ class SweepConfig:
         for f in self.families:
             if not f or "__" in f or "/" in f or f != f.strip():
                 raise SweepError(f"sweep config: bad family name {f!r} (non-empty, no '/', no '__')")
+        from navstack.registry import CONTROLLERS, PLANNERS
+
         for c in self.controllers:
             if c not in CONTROLLERS:
                 raise SweepError(f"sweep config: unknown controller {c!r}; "
@@ -204,15 +204,10 @@ class SweepConfig:
 
 
 def _known_families() -> tuple[str, ...]:
-    """``navstack.generate.FAMILIES`` (SweepError if the generator module is not available)."""
-    try:
-        from navstack.generate import FAMILIES
-    except ModuleNotFoundError as exc:
-        if exc.name == "navstack.generate":
-            raise SweepError("--generate needs navstack.generate, which is not available in this "
-                             "installation; use --worlds DIR") from exc
-        raise
-    return tuple(FAMILIES)
+    """The registered world families (:mod:`navstack.registry`)."""
+    from navstack.registry import family_names
+
+    return family_names()
 
 
 def _world_file_info(path: Path) -> tuple[str | None, float | None]:
@@ -909,9 +904,11 @@ def _run_pending(todo: deque[TrialSpec], out: Path, n_jobs: int, trial_timeout: 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the ``navstack trials`` options to ``parser`` (see :func:`run_from_args`)."""
+    from navstack.registry import CONTROLLERS, FAMILIES, PLANNERS
+
     src = parser.add_mutually_exclusive_group(required=True)
     src.add_argument("--generate", nargs="+", metavar="FAMILY",
-                     help="world families to generate (navstack.generate.FAMILIES)")
+                     help="world families to generate: " + ", ".join(FAMILIES))
     src.add_argument("--worlds", metavar="DIR", help="run every *.json world file in DIR")
     parser.add_argument("--count", type=int, default=1,
                         help="worlds per family and difficulty (--generate) "
@@ -919,9 +916,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="sweep seed; worlds and noise derive from it")
     parser.add_argument("--difficulty", type=float, nargs="+", default=None, metavar="D",
                         help="generator difficulties (default 0.5)")
-    parser.add_argument("--controller", action="append", choices=CONTROLLERS, default=None,
+    parser.add_argument("--controller", action="append", choices=tuple(CONTROLLERS), default=None,
                         help="controller to run (repeatable; default slither)")
-    parser.add_argument("--planner", action="append", choices=PLANNERS, default=None,
+    parser.add_argument("--planner", action="append", choices=tuple(PLANNERS), default=None,
                         help="planner to run (repeatable; default field)")
     parser.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
     parser.add_argument("--trial-timeout", type=float, default=DEFAULT_TRIAL_TIMEOUT, metavar="SEC",

@@ -41,8 +41,6 @@ from navstack.planner import PlannerConfig
 from navstack.sensing import SensorConfig
 from navstack.sim.servo import ServoConfig
 
-CONTROLLERS = ("slither", "tip-only")
-PLANNERS = ("field", "scripted")
 REASONS = ("reached", "collision", "timeout", "stalled", "joint_limit", "error")
 
 
@@ -151,10 +149,11 @@ def run_trial(
     ``ValueError``; a failure inside the simulation is returned as reason
     ``error`` with the message in ``error``.
     """
+    from navstack.registry import controller_names, planner_names
     from navstack.world import World, load_world, world_from_dict
 
-    _check_choice("controller", controller, CONTROLLERS)
-    _check_choice("planner", planner, PLANNERS)
+    _check_choice("controller", controller, controller_names())
+    _check_choice("planner", planner, planner_names())
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
     cfg = config or TrialConfig()
@@ -183,6 +182,37 @@ def run_trial(
         sim.finish_partial()
     result = _save(out, sim, reason, error, time.perf_counter() - wall0, render=render)
     return result
+
+
+# ---- factories named in navstack.registry ------------------------------------------------------------
+def make_slither_controller(chain, q0, dt: float, cfg: TrialConfig):
+    """The slithering controller of equation (4) (``--controller slither``)."""
+    from navstack.control import ControlConfig, SlitherController
+
+    return SlitherController(chain, ControlConfig(dt=dt, slither=cfg.slither_mode), q0)
+
+
+def make_tip_only_controller(chain, q0, dt: float, cfg: TrialConfig):
+    """Equation (4) with the tip task only (``--controller tip-only``)."""
+    from navstack.control import ControlConfig, SlitherController
+
+    return SlitherController(chain, ControlConfig(dt=dt, slither="none"), q0)
+
+
+def make_field_planner(ctx):
+    """The sensor-based potential-field planner (``--planner field``)."""
+    from navstack.guide import goal_spline
+    from navstack.planner import PotentialFieldPlanner
+
+    return PotentialFieldPlanner(ctx.config.field_planner, start=ctx.start, heading=ctx.heading,
+                                 guide=goal_spline(ctx.start, ctx.heading, ctx.goals))
+
+
+def make_scripted_planner(ctx):
+    """A smooth spline through the goals, no sensing (``--planner scripted``)."""
+    from navstack.scripted import ScriptedConfig, ScriptedPlanner
+
+    return ScriptedPlanner(ctx.start, ctx.heading, ctx.goals, ScriptedConfig(speed=ctx.config.scripted_speed))
 
 
 def check_reach(world) -> None:
@@ -232,7 +262,7 @@ class _Simulation:
     """The PyBullet side and the pipeline objects of one trial."""
 
     def __init__(self, world, controller: str, planner: str, seed: int, cfg: TrialConfig) -> None:
-        from navstack.control import ControlConfig, SlitherController
+        from navstack.registry import CONTROLLERS, PLANNERS, PlannerContext, load
         from navstack.sim._bullet import direct_client
         from navstack.sim.body import RobotBody
         from navstack.sim.scene import Scene
@@ -265,33 +295,25 @@ class _Simulation:
         self.servo = JointServo(self.body, cfg.servo)
         self.servo.hold(self.q0)
         self.dt = cfg.servo.control_dt
-        mode = "none" if controller == "tip-only" else cfg.slither_mode
-        self.controller = SlitherController(self.chain, ControlConfig(dt=self.dt, slither=mode), self.q0)
+        self.controller = load(CONTROLLERS[controller].factory)(self.chain, self.q0, self.dt, cfg)
         self.goals = np.array([g.position for g in world.goals])
         self.tolerances = np.array([g.tolerance for g in world.goals])
         F = self.chain.frames(self.q0)
         tip0 = self._to_world(F[21, :3, 3])
         heading0 = self.R0 @ F[20, :3, 0]
         self.rng = np.random.default_rng(seed)
+        entry = PLANNERS[planner]
+        context = PlannerContext(start=tip0, heading=heading0, goals=self.goals, tolerances=self.tolerances,
+                                 dt=self.dt, config=cfg)
+        self.planner = load(entry.factory)(context)
         self.sensor = None
         self.estimator = None
-        if planner == "scripted":
-            from navstack.scripted import ScriptedConfig, ScriptedPlanner
-
-            self.planner = ScriptedPlanner(tip0, heading0, self.goals, ScriptedConfig(speed=cfg.scripted_speed))
-        else:
+        if entry.senses:
             from navstack.estimate import RangeEstimator
-            from navstack.guide import goal_spline
-            from navstack.planner import PotentialFieldPlanner
             from navstack.sim.rays import RaySensor
 
-            sensor_cfg = cfg.sensor
-            self.sensor = RaySensor(self.client, sensor_cfg, self.body.body_id, self.rng)
-            self.estimator = RangeEstimator(sensor_cfg)
-            self.planner = PotentialFieldPlanner(
-                cfg.field_planner,
-                start=tip0, heading=heading0, guide=goal_spline(tip0, heading0, self.goals)
-            )
+            self.sensor = RaySensor(self.client, cfg.sensor, self.body.body_id, self.rng)
+            self.estimator = RangeEstimator(cfg.sensor)
         self.trajectory = Trajectory()
         self.goal_index = 0
         self.steps = 0

@@ -365,10 +365,17 @@ def test_cli_bad_input_and_interrupt_messages(tmp_path, capsys, monkeypatch):
     assert "1 of 2 trials are recorded" in err and f"navstack trials --worlds {tmp_path / 'in'}" in err
 
 
-def test_names_match_the_trial_module():
-    trial = pytest.importorskip("navstack.trial")
-    assert sweep.CONTROLLERS == tuple(trial.CONTROLLERS)
-    assert sweep.PLANNERS == tuple(trial.PLANNERS)
+def test_sweep_accepts_exactly_the_registered_names():
+    """Trial, sweep and CLI read one registry: every registered name is accepted, anything else refused."""
+    from navstack.registry import controller_names, planner_names
+
+    for c in controller_names():
+        for p in planner_names():
+            assert SweepConfig(families=("truss",), controllers=(c,), planners=(p,)).planners == (p,)
+    with pytest.raises(SweepError, match="unknown planner"):
+        SweepConfig(families=("truss",), planners=("no-such-planner",))
+    with pytest.raises(SweepError, match="unknown controller"):
+        SweepConfig(families=("truss",), controllers=("no-such-controller",))
 
 
 def test_worker_that_cannot_start_stops_the_sweep(tmp_path, monkeypatch):

@@ -1,0 +1,179 @@
+"""The registry: every planner, controller and world family, named once.
+
+The trial, the sweep, the report and the command line read names, one-line summaries and factories
+from here, so a new planner, controller or family is one new module plus one ``register_*`` call (below,
+or from user code before a sweep starts).  Factories are given as ``"module:attribute"`` strings and
+imported only when used, so importing the registry loads neither PyBullet nor the planners.
+
+Factory signatures:
+
+* planner: ``factory(context: navstack.registry.PlannerContext) -> TipPlanner`` (see
+  :mod:`navstack.planner` for the interface); ``senses`` says whether the trial must cast the tip rays
+  and pass filtered readings each step;
+* controller: ``factory(chain, q0, dt, trial_config) -> controller`` with ``step(x_d, xdot_d)``;
+* family: ``factory(rng, difficulty, cfg, robot) -> candidate`` (see :mod:`navstack.generate`);
+  ``seed_id`` enters the family's sub-seeds, so a family's worlds never depend on which other families
+  exist or in which order they are listed.
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = [
+    "CONTROLLERS",
+    "FAMILIES",
+    "PLANNERS",
+    "ControllerEntry",
+    "FamilyEntry",
+    "PlannerContext",
+    "PlannerEntry",
+    "controller_names",
+    "family_names",
+    "load",
+    "planner_names",
+    "register_controller",
+    "register_family",
+    "register_planner",
+]
+
+
+@dataclass(frozen=True)
+class PlannerEntry:
+    """A tip planner: ``factory(PlannerContext) -> TipPlanner``; ``senses``: needs tip sensor readings."""
+
+    name: str
+    summary: str
+    factory: str
+    senses: bool
+
+
+@dataclass(frozen=True)
+class ControllerEntry:
+    """A controller: ``factory(chain, q0, dt, trial_config)``."""
+
+    name: str
+    summary: str
+    factory: str
+
+
+@dataclass(frozen=True)
+class FamilyEntry:
+    """A world family of :mod:`navstack.generate`; ``difficulty`` says what the 0..1 knob changes."""
+
+    name: str
+    summary: str
+    factory: str
+    seed_id: int
+    difficulty: str
+
+
+@dataclass(frozen=True)
+class PlannerContext:
+    """What a planner is built from: the robot's start and the goals, never obstacle geometry.
+
+    Positions are in the world frame [m]; ``heading`` is the unit tip direction at t = 0; ``dt`` the
+    control period [s]; ``config`` the trial's :class:`navstack.trial.TrialConfig` (planner parameters).
+    """
+
+    start: NDArray[np.float64]
+    heading: NDArray[np.float64]
+    goals: NDArray[np.float64]
+    tolerances: NDArray[np.float64]
+    dt: float
+    config: Any = None
+
+
+PLANNERS: dict[str, PlannerEntry] = {}
+CONTROLLERS: dict[str, ControllerEntry] = {}
+FAMILIES: dict[str, FamilyEntry] = {}
+
+
+def _check_name(kind: str, name: str, table: dict[str, Any]) -> None:
+    if not isinstance(name, str) or not name or name != name.strip() or "/" in name or "__" in name:
+        raise ValueError(f"{kind} name must be a non-empty string without '/', '__' or spaces; got {name!r}")
+    if name in table:
+        raise ValueError(f"{kind} {name!r} is already registered")
+
+
+def register_planner(name: str, summary: str, factory: str, *, senses: bool) -> PlannerEntry:
+    """Register a planner under ``name`` (``ValueError`` if taken)."""
+    _check_name("planner", name, PLANNERS)
+    entry = PlannerEntry(name, summary, factory, bool(senses))
+    PLANNERS[name] = entry
+    return entry
+
+
+def register_controller(name: str, summary: str, factory: str) -> ControllerEntry:
+    """Register a controller under ``name`` (``ValueError`` if taken)."""
+    _check_name("controller", name, CONTROLLERS)
+    entry = ControllerEntry(name, summary, factory)
+    CONTROLLERS[name] = entry
+    return entry
+
+
+def register_family(name: str, summary: str, factory: str, *, seed_id: int, difficulty: str) -> FamilyEntry:
+    """Register a world family under ``name`` with a ``seed_id`` no other family uses."""
+    _check_name("family", name, FAMILIES)
+    if any(e.seed_id == seed_id for e in FAMILIES.values()):
+        raise ValueError(f"family seed_id {seed_id} is already used")
+    entry = FamilyEntry(name, summary, factory, int(seed_id), difficulty)
+    FAMILIES[name] = entry
+    return entry
+
+
+def planner_names() -> tuple[str, ...]:
+    return tuple(PLANNERS)
+
+
+def controller_names() -> tuple[str, ...]:
+    return tuple(CONTROLLERS)
+
+
+def family_names() -> tuple[str, ...]:
+    return tuple(FAMILIES)
+
+
+def load(target: str) -> Any:
+    """Import ``"module:attribute"``."""
+    module, _, attr = target.partition(":")
+    return getattr(importlib.import_module(module), attr)
+
+
+def describe(table: dict[str, Any]) -> str:
+    """One line per entry, ``name: summary`` (for ``--help`` texts)."""
+    return "; ".join(f"{e.name}: {e.summary}" for e in table.values())
+
+
+# ------------------------------------------------------------------------------------------ built-ins
+register_controller(
+    "slither", "equation (4) with every serpentine joint on the tip's recorded path (the paper's)",
+    "navstack.trial:make_slither_controller")
+register_controller(
+    "tip-only", "baseline: equation (4) with the tip task only, the body free",
+    "navstack.trial:make_tip_only_controller")
+
+register_planner(
+    "field", "sensor-based potential-field tip planner (tip rays, filtered ranges, goals only)",
+    "navstack.trial:make_field_planner", senses=True)
+register_planner(
+    "scripted", "baseline: a smooth spline through the goals, no sensing",
+    "navstack.trial:make_scripted_planner", senses=False)
+
+register_family("truss", "the paper's box-bay truss, displaced from its drawing; goals at every opening",
+                "navstack.generate:family_truss", seed_id=0,
+                difficulty="displacement up to 6 cm / 3 deg, bay 0.5 -> 0.42 m, members 2 -> 2.5 cm")
+register_family("cluttered-truss", "truss plus unmodelled cables and equipment boxes near the path",
+                "navstack.generate:family_cluttered_truss", seed_id=1,
+                difficulty="as truss, plus more and closer clutter")
+register_family("pipe-rack", "2-3 layers of horizontal pipes, a goal at each crossing",
+                "navstack.generate:family_pipe_rack", seed_id=2,
+                difficulty="gap 0.25 -> 0.13 m")
+register_family("sphere-field", "spheres beside a bumped path, via goals on the bump",
+                "navstack.generate:family_sphere_field", seed_id=3,
+                difficulty="more spheres, closer to the path")
