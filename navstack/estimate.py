@@ -108,6 +108,8 @@ class RangeEstimate:
         measured: (R,) True where the track was updated by a hit in this very reading
             (False for coasting tracks, which are predictions only).
         range_std: (R,) posterior standard deviation of the range [m] (``NaN`` if untracked).
+        valid: (R,) False where the ray dropped out of this reading (no information).
+        max_range: the sensor's range [m] (a valid ray that is not tracking saw free space this far).
     """
 
     origins: NDArray[np.float64]
@@ -117,6 +119,8 @@ class RangeEstimate:
     tracking: NDArray[np.bool_]
     measured: NDArray[np.bool_]
     range_std: NDArray[np.float64]
+    valid: NDArray[np.bool_] | None = None
+    max_range: float = float("nan")
 
     @property
     def points(self) -> NDArray[np.float64]:
@@ -271,4 +275,6 @@ class RangeEstimator:
             tracking=self.tracking.copy(),
             measured=measured & self.tracking,
             range_std=std,
+            valid=np.array(reading.valid),
+            max_range=float(reading.max_range),
         )

@@ -159,8 +159,11 @@ register_controller(
     "navstack.trial:make_tip_only_controller")
 
 register_planner(
-    "field", "sensor-based potential-field tip planner (tip rays, filtered ranges, goals only)",
+    "field", "sensing planner: sensed map, potential, hybrid A* over arcs the tip can follow, backing out",
     "navstack.trial:make_field_planner", senses=True)
+register_planner(
+    "reactive", "baseline: the earlier reactive potential field (pursues the goal spline, gap centring)",
+    "navstack.trial:make_reactive_planner", senses=True)
 register_planner(
     "scripted", "baseline: a smooth spline through the goals, no sensing",
     "navstack.trial:make_scripted_planner", senses=False)

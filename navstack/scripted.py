@@ -59,14 +59,10 @@ class ScriptedPlanner:
     def step(
         self,
         dt: float,
-        tip_position: ArrayLike | None = None,
-        tip_direction: ArrayLike | None = None,
+        tip: ArrayLike | None = None,
+        direction: ArrayLike | None = None,
         reading: object | None = None,
-        goal: ArrayLike | None = None,
-        goal_tolerance: float | None = None,
-        *,
-        approach: bool = False,
-        next_goal: ArrayLike | None = None,
+        goal_index: int = 0,
     ) -> TipCommand:
         """Advance along the curve by one period ``dt`` [s]; the other arguments are ignored."""
         cfg = self.config

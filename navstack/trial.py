@@ -37,7 +37,8 @@ from typing import Any
 import numpy as np
 
 from navstack.jpl import BACKBONE_FRAMES, jpl_serpentine
-from navstack.planner import PlannerConfig
+from navstack.planner.field import FieldPlannerConfig
+from navstack.planner.legacy import PlannerConfig
 from navstack.sensing import SensorConfig
 from navstack.sim.servo import ServoConfig
 
@@ -51,8 +52,10 @@ class TrialConfig:
     servo: ServoConfig = field(default_factory=ServoConfig)
     sensor: SensorConfig = field(default_factory=SensorConfig)
     """The tip proximity sensor (``--planner field``)."""
-    field_planner: PlannerConfig = field(default_factory=PlannerConfig)
-    """The potential-field planner's parameters (``--planner field``)."""
+    field_planner: FieldPlannerConfig = field(default_factory=FieldPlannerConfig)
+    """The sensing planner's parameters (``--planner field``)."""
+    reactive_planner: PlannerConfig = field(default_factory=PlannerConfig)
+    """The previous reactive planner's parameters (``--planner reactive``)."""
     slither_mode: str = "projected"
     """Slithering task form for ``--controller slither``: ``projected`` (2 rows per joint point) or ``full``."""
     scripted_speed: float = 0.06
@@ -200,12 +203,20 @@ def make_tip_only_controller(chain, q0, dt: float, cfg: TrialConfig):
 
 
 def make_field_planner(ctx):
-    """The sensor-based potential-field planner (``--planner field``)."""
-    from navstack.guide import goal_spline
-    from navstack.planner import PotentialFieldPlanner
+    """The sensing planner (``--planner field``): map, potential, hybrid A*, steering, escape."""
+    from navstack.planner.field import FieldPlanner
 
-    return PotentialFieldPlanner(ctx.config.field_planner, start=ctx.start, heading=ctx.heading,
-                                 guide=goal_spline(ctx.start, ctx.heading, ctx.goals))
+    return FieldPlanner(ctx.start, ctx.heading, ctx.goals, ctx.tolerances, ctx.config.field_planner)
+
+
+def make_reactive_planner(ctx):
+    """The previous reactive potential-field planner (``--planner reactive``), kept as a baseline."""
+    from navstack.guide import goal_spline
+    from navstack.planner.legacy import GoalListAdapter, PotentialFieldPlanner
+
+    inner = PotentialFieldPlanner(ctx.config.reactive_planner, start=ctx.start, heading=ctx.heading,
+                                  guide=goal_spline(ctx.start, ctx.heading, ctx.goals))
+    return GoalListAdapter(inner, ctx.goals, ctx.tolerances)
 
 
 def make_scripted_planner(ctx):
@@ -366,23 +377,12 @@ class _Simulation:
                 return "collision" if self.contacts else "reached"
             if self.steps >= limit_steps:
                 return "collision" if self.contacts else "timeout"
-            goal = self.goals[self.goal_index]
             reading = None
             if self.sensor is not None:
                 tip_T = self.T0 @ F[21]
                 raw = self.sensor.read(tip_T)
                 reading = self.estimator.update(raw, self.dt)
-            last = self.goal_index == len(self.goals) - 1
-            cmd = self.planner.step(
-                self.dt,
-                tip,
-                self.R0 @ F[20, :3, 0],
-                reading,
-                goal,
-                float(self.tolerances[self.goal_index]),
-                approach=last,
-                next_goal=None if last else self.goals[self.goal_index + 1],
-            )
+            cmd = self.planner.step(self.dt, tip, self.R0 @ F[20, :3, 0], reading, self.goal_index)
             if cmd.stalled:
                 return "collision" if self.contacts else "stalled"
             x_d = np.asarray(cmd.position, dtype=np.float64)

@@ -16,7 +16,7 @@ import pytest
 from pybullet_utils.bullet_client import BulletClient
 
 from navstack.estimate import RangeEstimator
-from navstack.planner import PlannerConfig, PotentialFieldPlanner, TipCommand, TipPlanner
+from navstack.planner.legacy import PlannerConfig, PotentialFieldPlanner, TipCommand, TipPlanner
 from navstack.sensing import SensorConfig, frame_from_direction
 from navstack.sim.rays import RaySensor
 

@@ -147,7 +147,6 @@ ends with reason ``stalled``.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
-from typing import Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -155,6 +154,7 @@ from scipy.spatial import cKDTree
 
 from navstack.estimate import EstimatorConfig, RangeEstimate, RangeEstimator
 from navstack.guide import GuidePath
+from navstack.planner.types import TipCommand, TipPlanner
 from navstack.sensing import SensorReading
 
 __all__ = [
@@ -164,52 +164,6 @@ __all__ = [
     "TipCommand",
     "TipPlanner",
 ]
-
-
-@dataclass(frozen=True)
-class TipCommand:
-    """What a tip planner commands for the next control step.
-
-    Attributes:
-        position: (3,) commanded tip position x_d [m] (world).
-        velocity: (3,) commanded tip velocity xdot_d [m/s] (world).
-        stalled: True when the planner has given up (the trial should end, reason ``stalled``).
-        mode: diagnostic label of the planner's state (e.g. ``goal``, ``follow``, ``hold``).
-        reverse: True when the command runs *back* along the tip's recorded path (a retreat): the
-            slithering controller then drops the retracted part of its path memory instead of
-            recording the command as new path.
-    """
-
-    position: NDArray[np.float64]
-    velocity: NDArray[np.float64]
-    stalled: bool
-    mode: str = ""
-    reverse: bool = False
-
-
-@runtime_checkable
-class TipPlanner(Protocol):
-    """Interface shared by the tip planners (potential field, scripted baseline)."""
-
-    def step(
-        self,
-        dt: float,
-        tip_position_measured: NDArray[np.float64],
-        tip_direction: NDArray[np.float64],
-        reading: SensorReading | None,
-        goal: NDArray[np.float64],
-        goal_tolerance: float,
-        *,
-        approach: bool = False,
-        next_goal: NDArray[np.float64] | None = None,
-    ) -> TipCommand:
-        """Advance by ``dt`` [s] and return the command for the current goal.
-
-        ``approach=True`` asks for a smooth stop on the goal (e.g. the final one)
-        instead of passing through it; ``next_goal`` (optional) is the goal after
-        this one, so the tip can arrive already turning towards it.
-        """
-        ...
 
 
 _GUIDE_HIT = 0.005
@@ -1187,3 +1141,19 @@ class PotentialFieldPlanner:
             return self._free_length(x, e, P, min(dist, cfg.lookahead)) >= min(dist, cfg.lookahead)
         # or the whole straight way to a goal within the memory radius is known to be free
         return dist <= cfg.memory_radius and self._free_length(x, e, P, dist) >= dist
+
+
+class GoalListAdapter:
+    """The :class:`TipPlanner` interface (goal index) on top of :class:`PotentialFieldPlanner` (one goal)."""
+
+    def __init__(self, inner: PotentialFieldPlanner, goals: ArrayLike, tolerances: ArrayLike) -> None:
+        self.inner = inner
+        self.goals = np.asarray(goals, dtype=np.float64).reshape(-1, 3)
+        self.tolerances = np.asarray(tolerances, dtype=np.float64).reshape(-1)
+
+    def step(self, dt: float, tip: ArrayLike, direction: ArrayLike, reading: object | None,
+             goal_index: int) -> TipCommand:
+        k = int(goal_index)
+        last = k == len(self.goals) - 1
+        return self.inner.step(dt, tip, direction, reading, self.goals[k], float(self.tolerances[k]),
+                               approach=last, next_goal=None if last else self.goals[k + 1])

@@ -1,0 +1,274 @@
+"""The sensing tip planner (``--planner field``): map, potential, search, steering, escape.
+
+The paper's planner treats the tip as a mobile robot in a potential field built from proximity
+sensing.  Here the field is descended along paths the tip can actually follow:
+
+1. **sense -> map** (:mod:`navstack.planner.map`): every filtered reading adds its hits as surface
+   points and marks the space its rays crossed as seen free; the tip's own position is free;
+2. **potential** (:mod:`navstack.planner.potential`): the remaining length to the goals plus
+   Khatib's repulsion from the sensed points, with unseen space next to a sensed surface costly;
+3. **search** (:mod:`navstack.planner.search`): a hybrid A* over curvature-bounded arcs from the
+   commanded state through every remaining goal: the path of least potential that the tip can
+   follow; **replanned** when a new surface point comes near the path ahead, when the goal index
+   moves, and every ``replan_period`` while the map changes;
+4. **steering** (:mod:`navstack.planner.steering`): the command runs along the plan, slowing near
+   surfaces, stopping at the plan's end;
+5. **escape** (:mod:`navstack.planner.escape`): when no path leads on, back out along the tip's own
+   path to the nearest point from which one does (reverse commands), and go on from there.
+
+It never reads obstacle geometry: its inputs are the start, the goals, the robot's own tip state
+and the filtered sensor readings (tests/test_isolation.py).  Units: metres, seconds.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from navstack.planner.escape import CommandPath, EscapeConfig, Retreat, find_branch_point
+from navstack.planner.map import MapConfig, SensedMap
+from navstack.planner.potential import NavigationFunction, Repulsion, navigation_function
+from navstack.planner.search import NO_PATH, REACHED, Plan, SearchConfig, navigation_region, search
+from navstack.planner.steering import PlanFollower, SteeringConfig
+from navstack.planner.types import TipCommand
+
+__all__ = ["FieldPlanner", "FieldPlannerConfig"]
+
+
+@dataclass(frozen=True)
+class FieldPlannerConfig:
+    """Parameters of :class:`FieldPlanner` (each part has its own dataclass).
+
+    Attributes:
+        replan_period: replan at least this often while the map changes [s].
+        horizon: how far ahead [m] new points are checked against the plan.
+        ray_start: rays mark free space from this distance from the tip [m].
+        urgent_margin: a new surface point within the blocking radius plus this of the plan ahead
+            forces a replan at once [m].
+        nav_period: the navigation function is recomputed at least this often while the map
+            changes [s] (and whenever the next goal changes, or a search fails with the old one).
+    """
+
+    map: MapConfig = field(default_factory=MapConfig)
+    repulsion: Repulsion = field(default_factory=Repulsion)
+    search: SearchConfig = field(default_factory=SearchConfig)
+    steering: SteeringConfig = field(default_factory=SteeringConfig)
+    escape: EscapeConfig = field(default_factory=EscapeConfig)
+    replan_period: float = 0.5
+    horizon: float = 0.6
+    ray_start: float = 0.03
+    urgent_margin: float = 0.005
+    nav_period: float = 1.0
+
+    def __post_init__(self) -> None:
+        for name in ("replan_period", "horizon", "ray_start", "urgent_margin", "nav_period"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+                raise ValueError(f"FieldPlannerConfig.{name} must be a positive number, got {v!r}")
+
+
+def _vec3(v: ArrayLike, name: str) -> NDArray[np.float64]:
+    a = np.asarray(v, dtype=np.float64)
+    if a.shape != (3,) or not np.isfinite(a).all():
+        raise ValueError(f"{name} must be 3 finite numbers, got {v!r}")
+    return a.copy()
+
+
+class FieldPlanner:
+    """Sensor-based tip planner (see the module docstring).
+
+    Args:
+        start: (3,) initial tip position [m] (world).
+        heading: (3,) initial tip direction (world).
+        goals: (k, 3) goals [m], in order.
+        tolerances: (k,) goal tolerances [m].
+        config: parameters (``None`` = defaults).
+    """
+
+    def __init__(self, start: ArrayLike, heading: ArrayLike, goals: ArrayLike, tolerances: ArrayLike,
+                 config: FieldPlannerConfig | None = None) -> None:
+        self.config = cfg = config or FieldPlannerConfig()
+        self.start = _vec3(start, "start")
+        h = _vec3(heading, "heading")
+        if np.linalg.norm(h) < 1e-9:
+            raise ValueError("heading must be non-zero")
+        self.goals = np.asarray(goals, dtype=np.float64).reshape(-1, 3)
+        self.tolerances = np.asarray(tolerances, dtype=np.float64).reshape(-1)
+        if len(self.goals) == 0 or len(self.tolerances) != len(self.goals) or not np.isfinite(self.goals).all():
+            raise ValueError("goals must be (k >= 1, 3) finite positions with k tolerances")
+        box = np.vstack([self.start, self.goals])
+        self.map = SensedMap(box.min(axis=0), box.max(axis=0), cfg.map)
+        self.path = CommandPath(self.start)
+        self.time = 0.0
+        self._nav: tuple[int, int, NavigationFunction, float] | None = None
+        self.command_goal = 0
+        """Goals the command itself has passed (within the search's reach of them), in order."""
+        self.follower = PlanFollower(self._plan_from(self.start, h / np.linalg.norm(h), 0), cfg.steering)
+        self.goal_index = 0
+        self.mode = "plan"
+        self.stalled = False
+        self.retreat: Retreat | None = None
+        self._pending: tuple[float, Plan] | None = None
+        self._planned_at = 0.0
+        self._planned_version = -1
+        self.replans = 0
+        self.retreats = 0
+        self._command_goal_s = 0.0
+        self._last_branch: float | None = None
+
+    # ---- planning
+    def _navigation(self, p: NDArray[np.float64], k: int, fresh: bool) -> NavigationFunction | None:
+        """The navigation function to goal ``k``, cached for ``nav_period`` while it still covers ``p``."""
+        if k >= len(self.goals):
+            return None
+        cfg = self.config
+        cached = self._nav
+        stale = (cached is None or cached[0] != k or fresh or not np.isfinite(cached[2].lookup(p))
+                 or (self.map.version != cached[1] and self.time - cached[3] >= cfg.nav_period))
+        if stale:
+            lo, hi = navigation_region(p, self.goals[k], cfg.search)
+            reach = cfg.search.goal_fraction * float(self.tolerances[k])
+            nav = navigation_function(self.map, self.goals[k], reach, lo, hi, cfg.repulsion)
+            self._nav = cached = (k, self.map.version, nav, self.time)
+        return cached[2]
+
+    def _plan_from(self, p: NDArray[np.float64], h: NDArray[np.float64], k: int, fresh: bool = False) -> Plan:
+        cfg = self.config
+        k = self._passed(p, k)
+        plan = search(self.map, p, h, self.goals, self.tolerances, k, cfg.search, cfg.repulsion,
+                      history=self.path.tail(cfg.search.link_length * 1.5), nav=self._navigation(p, k, fresh))
+        if plan.status != REACHED and not fresh:
+            return self._plan_from(p, h, k, fresh=True)
+        return plan
+
+    def _passed(self, p: NDArray[np.float64], k: int) -> int:
+        """Goals from ``k`` on that the command ``p`` is within reach of (already there)."""
+        reach = self.config.search.goal_fraction * self.tolerances
+        while k < len(self.goals) and float(np.linalg.norm(p - self.goals[k])) <= reach[k]:
+            k += 1
+        return k
+
+    def _sync_goals(self, goal_index: int) -> bool:
+        """Reconcile the trial's goal count with the command's; True if the plan must change.
+
+        The command passes a goal a step or two before the tip (it lags by a millimetre or two), so
+        the plan goes by the command's count; if the trial counts a goal the command has not passed,
+        or the command passed one that the tip then missed (0.1 m on, still not counted), the
+        command's count takes the trial's and the planner replans for the right goal.
+        """
+        self.goal_index = int(goal_index)
+        if self.goal_index > self.command_goal or (
+                self.command_goal > self.goal_index and self.path.length - self._command_goal_s >= 0.1):
+            self.command_goal = self.goal_index
+            return True
+        return False
+
+    def _replan(self) -> None:
+        p, h = self.follower.state()
+        plan = self._plan_from(p, h, self.command_goal)
+        self.replans += 1
+        self._planned_at = self.time
+        self._planned_version = self.map.version
+        if plan.status == NO_PATH:
+            self._start_escape()
+            return
+        self.follower = PlanFollower(plan, self.config.steering, self.follower.v)
+
+    def _start_escape(self) -> None:
+        # a new escape soon after the last branch point must go back beyond it (no retreat cycles)
+        limit = self.path.length
+        if self._last_branch is not None and self.path.length - self._last_branch < 0.3:
+            limit = self._last_branch - self.config.escape.step
+        found = find_branch_point(self.path, lambda p, h: self._plan_from(p, h, self.command_goal, fresh=True),
+                                  self.config.escape, before=limit)
+        if found is None:
+            self.stalled = True
+            self.mode = "stalled"
+            return
+        self.retreats += 1
+        s, plan = found
+        self._last_branch = s
+        self._pending = (s, plan)
+        self.retreat = Retreat(self.path, s, self.config.escape)
+        self.mode = "retreat"
+
+    def _needs_replan(self) -> bool:
+        cfg = self.config
+        f = self.follower
+        plan = f.plan
+        if plan.status != REACHED and self.time - self._planned_at >= cfg.replan_period:
+            return True
+        i = int(np.searchsorted(plan.arc, f.s))
+        new = self.map.new_points
+        if len(new):
+            j = int(np.searchsorted(plan.arc, f.s + cfg.horizon))
+            ahead = plan.points[i : j + 1 : 4]
+            if len(ahead):
+                d2 = ((new[:, None, :] - ahead[None, :, :]) ** 2).sum(axis=2)
+                if float(np.sqrt(d2.min())) < cfg.repulsion.r_block + cfg.urgent_margin:
+                    return True
+        return self.map.version != self._planned_version and self.time - self._planned_at >= cfg.replan_period
+
+    # ---- sensing
+    def _sense(self, reading) -> None:
+        if reading is None:
+            return
+        measured = np.asarray(reading.measured, dtype=np.bool_)
+        valid = np.asarray(getattr(reading, "valid", np.ones_like(measured)), dtype=np.bool_)
+        tracking = np.asarray(reading.tracking, dtype=np.bool_)
+        max_range = float(getattr(reading, "max_range", 0.4))
+        ranges = np.where(measured, reading.ranges, max_range)
+        informative = measured | (valid & ~tracking)
+        starts = np.full(len(ranges), self.config.ray_start)
+        self.map.update(reading.origins, reading.directions, starts, ranges, measured, informative)
+
+    # ---- step
+    def step(self, dt: float, tip: ArrayLike, direction: ArrayLike, reading, goal_index: int) -> TipCommand:
+        """Advance by ``dt`` [s]; ``tip`` the measured tip [m], ``goal_index`` the goals reached so far."""
+        tip = _vec3(tip, "tip")
+        self.time += dt
+        self._sense(reading)
+        self.map.mark_free(tip, self.config.repulsion.body_radius)
+        changed = self._sync_goals(goal_index)
+        if self.stalled:
+            p = self.path.point(self.path.length)
+            return TipCommand(p, np.zeros(3), True, "stalled")
+        if self.retreat is not None:
+            return self._step_retreat(dt)
+        if changed or self._needs_replan():
+            self._replan()
+            if self.retreat is not None or self.stalled:
+                return self.step_hold(dt)
+        x_d, _ = self.follower.state()
+        clearance = self.map.distance(x_d) - self.config.repulsion.body_radius
+        lag = float(np.linalg.norm(x_d - tip))
+        p, v = self.follower.advance(dt, clearance, lag)
+        self.path.record(p)
+        k = self._passed(p, self.command_goal)
+        if k != self.command_goal:
+            self.command_goal = k
+            self._command_goal_s = self.path.length
+        self.mode = "plan" if self.follower.plan.status == REACHED else "explore"
+        return TipCommand(p, v, False, self.mode)
+
+    def step_hold(self, dt: float) -> TipCommand:
+        """Hold the command where it is (the step on which an escape starts or the planner gives up)."""
+        p = self.path.point(self.path.length)
+        return TipCommand(p, np.zeros(3), self.stalled, self.mode)
+
+    def _step_retreat(self, dt: float) -> TipCommand:
+        r = self.retreat
+        assert r is not None
+        p, v = r.step(dt)
+        if r.done:
+            s, plan = self._pending  # type: ignore[misc]
+            self.path.truncate(s)
+            self.retreat = None
+            self._pending = None
+            self.follower = PlanFollower(plan, self.config.steering, 0.0)
+            self._planned_version = -1  # the map has grown while backing out: replan now
+            self._planned_at = -math.inf
+        return TipCommand(p, v, False, "retreat", reverse=True)

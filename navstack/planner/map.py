@@ -1,0 +1,334 @@
+"""The planner's local map: the surfaces it has sensed, and the space it has seen to be free.
+
+Built from filtered tip-sensor readings only (:class:`navstack.estimate.RangeEstimate`) and the
+tip's own motion; it never reads obstacle geometry.  Two layers over one bounded region (a box
+around the start and the goals, ``margin`` beyond them), in the world frame, metres:
+
+**Surface points.**  Each hit of a ray that was measured in this reading is merged into a
+voxel of side ``voxel`` (a running mean over at most ``average`` samples: the range noise
+averages out) and becomes one surface point.  The points are indexed in a dense grid of
+buckets of side ``bucket`` (a multiple of ``voxel`` on the same lattice, so a point never
+leaves its bucket), which answers "the nearest surface point within ``r <= bucket``" exactly
+by scanning 27 buckets: :func:`nearest_distance`.
+
+**Seen free.**  A cell (side ``free_cell``) is *seen free* once a ray has passed through it
+without a hit (up to ``hit_backoff`` before the hit, or the whole ray for a miss), or once the
+tip has been there.  Unseen space is not an obstacle (the planner is optimistic about what it
+has not seen), but unseen space *next to a sensed surface* is probably more of that surface:
+the rays sample a wall a few centimetres apart, and the gaps between the samples are not
+openings until a ray has gone through them (see :mod:`navstack.planner.potential`).
+
+A ray that passes cleanly through a stored point (well before its own end, within
+``clear_radius`` of its line) removes it: surfaces that moved are forgotten.
+
+Cost: one update per control step, O(rays x range / free_cell) cell writes; queries O(27 x
+points per bucket).  Every kernel is ``numba.njit``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = ["MapConfig", "SensedMap", "nearest_distance"]
+
+
+@dataclass(frozen=True)
+class MapConfig:
+    """Resolution and extent of :class:`SensedMap` (metres).
+
+    Attributes:
+        voxel: side of the voxels hits are merged in.
+        bucket: side of the index buckets; queries look this far at most (a multiple of ``voxel``).
+        free_cell: side of the seen-free cells.
+        margin: the map covers the box around the start and the goals grown by this.
+        average: samples in a voxel's running mean.
+        hit_backoff: a ray that hits marks free space only up to this before its hit.
+        clear_radius: a ray passing this close to a stored point, before its own end, removes it.
+        clear_backoff: ... but only a point this far or more before the ray's end.
+    """
+
+    voxel: float = 0.01
+    bucket: float = 0.08
+    free_cell: float = 0.02
+    margin: float = 0.7
+    average: int = 8
+    hit_backoff: float = 0.03
+    clear_radius: float = 0.004
+    clear_backoff: float = 0.05
+
+    def __post_init__(self) -> None:
+        for name in ("voxel", "bucket", "free_cell", "margin", "hit_backoff", "clear_radius", "clear_backoff"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+                raise ValueError(f"MapConfig.{name} must be a positive length [m], got {v!r}")
+        ratio = self.bucket / self.voxel
+        if abs(ratio - round(ratio)) > 1e-9:
+            raise ValueError(f"MapConfig.bucket ({self.bucket}) must be a whole multiple of voxel ({self.voxel})")
+        if isinstance(self.average, bool) or not isinstance(self.average, int) or self.average < 1:
+            raise ValueError(f"MapConfig.average must be an integer >= 1, got {self.average!r}")
+
+
+# ------------------------------------------------------------------------------------------ kernels
+@numba.njit(cache=True, inline="always")
+def _cell(x, origin, size, dims, k):  # pragma: no cover - jitted
+    i = int(math.floor((x - origin[k]) / size))
+    if i < 0:
+        return 0
+    if i >= dims[k]:
+        return dims[k] - 1
+    return i
+
+
+@numba.njit(cache=True)
+def nearest_distance(px, py, pz, r, P, alive, head, nxt, origin, bucket, dims):  # pragma: no cover
+    """Distance [m] from (px, py, pz) to the nearest live point, exact if below ``r``, else ``r``.
+
+    ``r`` must not exceed ``bucket`` (27 buckets are scanned).
+    """
+    bx = _cell(px, origin, bucket, dims, 0)
+    by = _cell(py, origin, bucket, dims, 1)
+    bz = _cell(pz, origin, bucket, dims, 2)
+    best = r * r
+    for i in range(max(bx - 1, 0), min(bx + 2, dims[0])):
+        for j in range(max(by - 1, 0), min(by + 2, dims[1])):
+            for k in range(max(bz - 1, 0), min(bz + 2, dims[2])):
+                q = head[i, j, k]
+                while q >= 0:
+                    if alive[q]:
+                        dx = P[q, 0] - px
+                        dy = P[q, 1] - py
+                        dz = P[q, 2] - pz
+                        d2 = dx * dx + dy * dy + dz * dz
+                        if d2 < best:
+                            best = d2
+                    q = nxt[q]
+    return math.sqrt(best)
+
+
+@numba.njit(cache=True)
+def _carve(origins, dirs, starts, ends, free, forigin, fcell, fdims, P, alive, head, nxt, borigin, bucket,
+           bdims, clear_r, clear_back):  # pragma: no cover - jitted
+    """Mark the cells along each ray [start, end) seen free; remove points the ray passes through."""
+    step = 0.5 * fcell
+    removed = 0
+    for r in range(origins.shape[0]):
+        s = starts[r]
+        e = ends[r]
+        ox, oy, oz = origins[r, 0], origins[r, 1], origins[r, 2]
+        dx, dy, dz = dirs[r, 0], dirs[r, 1], dirs[r, 2]
+        while s < e:
+            x = ox + s * dx
+            y = oy + s * dy
+            z = oz + s * dz
+            i = int(math.floor((x - forigin[0]) / fcell))
+            j = int(math.floor((y - forigin[1]) / fcell))
+            k = int(math.floor((z - forigin[2]) / fcell))
+            if 0 <= i < fdims[0] and 0 <= j < fdims[1] and 0 <= k < fdims[2]:
+                free[i, j, k] = 1
+            s += step
+        # points on the clear part of the ray (before end - clear_back) are not there any more
+        e_clear = e - clear_back
+        if e_clear <= starts[r]:
+            continue
+        s = starts[r]
+        while s < e_clear:
+            x = ox + s * dx
+            y = oy + s * dy
+            z = oz + s * dz
+            bx = _cell(x, borigin, bucket, bdims, 0)
+            by = _cell(y, borigin, bucket, bdims, 1)
+            bz = _cell(z, borigin, bucket, bdims, 2)
+            q = head[bx, by, bz]
+            while q >= 0:
+                if alive[q]:
+                    wx = P[q, 0] - ox
+                    wy = P[q, 1] - oy
+                    wz = P[q, 2] - oz
+                    a = wx * dx + wy * dy + wz * dz
+                    if starts[r] < a < e_clear:
+                        lx = wx - a * dx
+                        ly = wy - a * dy
+                        lz = wz - a * dz
+                        if lx * lx + ly * ly + lz * lz < clear_r * clear_r:
+                            alive[q] = False
+                            removed += 1
+                q = nxt[q]
+            s += 0.5 * bucket
+    return removed
+
+
+@numba.njit(cache=True)
+def _mark_ball(free, forigin, fcell, fdims, cx, cy, cz, radius):  # pragma: no cover - jitted
+    """Mark the cells whose centres lie within ``radius`` of (cx, cy, cz) seen free."""
+    n = int(math.ceil(radius / fcell)) + 1
+    ci = int(math.floor((cx - forigin[0]) / fcell))
+    cj = int(math.floor((cy - forigin[1]) / fcell))
+    ck = int(math.floor((cz - forigin[2]) / fcell))
+    for i in range(max(ci - n, 0), min(ci + n + 1, fdims[0])):
+        for j in range(max(cj - n, 0), min(cj + n + 1, fdims[1])):
+            for k in range(max(ck - n, 0), min(ck + n + 1, fdims[2])):
+                x = forigin[0] + (i + 0.5) * fcell - cx
+                y = forigin[1] + (j + 0.5) * fcell - cy
+                z = forigin[2] + (k + 0.5) * fcell - cz
+                if x * x + y * y + z * z <= radius * radius:
+                    free[i, j, k] = 1
+
+
+# ------------------------------------------------------------------------------------------ class
+class SensedMap:
+    """Surface points and seen-free cells over the box ``lo .. hi`` [m] (see the module docstring)."""
+
+    def __init__(self, lo: ArrayLike, hi: ArrayLike, config: MapConfig | None = None) -> None:
+        cfg = config or MapConfig()
+        lo = np.asarray(lo, dtype=np.float64) - cfg.margin
+        hi = np.asarray(hi, dtype=np.float64) + cfg.margin
+        if lo.shape != (3,) or hi.shape != (3,) or not (np.isfinite(lo).all() and np.isfinite(hi).all()):
+            raise ValueError("SensedMap: lo and hi must be finite 3-vectors [m]")
+        if np.any(hi <= lo):
+            raise ValueError(f"SensedMap: empty box {lo} .. {hi}")
+        self.config = cfg
+        # buckets on the voxel lattice: origin a multiple of the voxel
+        self.origin = np.floor(lo / cfg.voxel) * cfg.voxel
+        self.bucket_dims = np.ceil((hi - self.origin) / cfg.bucket).astype(np.int64) + 1
+        self.free_dims = np.ceil((hi - self.origin) / cfg.free_cell).astype(np.int64) + 1
+        cells = int(np.prod(self.free_dims))
+        if cells > 40_000_000 or int(np.prod(self.bucket_dims)) > 4_000_000:
+            raise ValueError(f"SensedMap: the box {lo} .. {hi} is too large for a local map")
+        self.head = np.full(tuple(self.bucket_dims), -1, dtype=np.int64)
+        self.free = np.zeros(tuple(self.free_dims), dtype=np.uint8)
+        self._P = np.zeros((1024, 3))
+        self._count = np.zeros(1024, dtype=np.int64)
+        self._alive = np.zeros(1024, dtype=np.bool_)
+        self._next = np.full(1024, -1, dtype=np.int64)
+        self._n = 0
+        self._voxels: dict[tuple[int, int, int], int] = {}
+        self.version = 0
+        """Incremented whenever a point is added, moved by more than a millimetre, or removed."""
+        self.new_points = np.empty((0, 3))
+        """Points added or moved by the last :meth:`update` (K, 3) [m]."""
+
+    # ---- storage
+    @property
+    def n_points(self) -> int:
+        """Number of live surface points."""
+        return int(self._alive[: self._n].sum())
+
+    @property
+    def n_slots(self) -> int:
+        """Number of point slots in use (live and removed points)."""
+        return self._n
+
+    @property
+    def points(self) -> NDArray[np.float64]:
+        """The live surface points (N, 3) [m] (a copy)."""
+        return self._P[: self._n][self._alive[: self._n]].copy()
+
+    def arrays(self) -> tuple:
+        """The arrays the numba kernels take: ``(P, alive, head, next, origin, bucket, bucket_dims)``."""
+        return (self._P, self._alive, self.head, self._next, self.origin, self.config.bucket, self.bucket_dims)
+
+    def free_arrays(self) -> tuple:
+        """``(free, origin, free_cell, free_dims)``."""
+        return (self.free, self.origin, self.config.free_cell, self.free_dims)
+
+    def _grow(self) -> None:
+        cap = 2 * self._P.shape[0]
+        for name, fill in (("_P", 0.0), ("_count", 0), ("_alive", False), ("_next", -1)):
+            old = getattr(self, name)
+            new = np.full((cap,) + old.shape[1:], fill, dtype=old.dtype)
+            new[: self._n] = old[: self._n]
+            setattr(self, name, new)
+
+    def _bucket(self, p: NDArray[np.float64]) -> tuple[int, int, int]:
+        b = np.floor((p - self.origin) / self.config.bucket).astype(np.int64)
+        b = np.clip(b, 0, self.bucket_dims - 1)
+        return int(b[0]), int(b[1]), int(b[2])
+
+    def add_points(self, pts: ArrayLike) -> None:
+        """Merge surface points (K, 3) [m] into their voxels."""
+        pts = np.asarray(pts, dtype=np.float64).reshape(-1, 3)
+        cfg = self.config
+        keys = np.floor((pts - self.origin) / cfg.voxel).astype(np.int64)
+        changed = []
+        for key_arr, p in zip(keys, pts, strict=True):
+            key = (int(key_arr[0]), int(key_arr[1]), int(key_arr[2]))
+            idx = self._voxels.get(key)
+            if idx is not None and self._alive[idx]:
+                c = min(int(self._count[idx]) + 1, cfg.average)
+                self._count[idx] = c
+                step = (p - self._P[idx]) / c
+                self._P[idx] += step
+                if float(step @ step) > 1e-6:
+                    changed.append(self._P[idx].copy())
+                continue
+            if idx is None:
+                if self._n == self._P.shape[0]:
+                    self._grow()
+                idx = self._n
+                self._n += 1
+                self._voxels[key] = idx
+                b = self._bucket(p)
+                self._next[idx] = self.head[b]
+                self.head[b] = idx
+            self._P[idx] = p
+            self._count[idx] = 1
+            self._alive[idx] = True
+            changed.append(p.copy())
+        if changed:
+            self.version += 1
+            self.new_points = np.vstack([self.new_points, np.array(changed)])
+
+    def update(self, origins: ArrayLike, directions: ArrayLike, starts: ArrayLike, ranges: ArrayLike,
+               hit: ArrayLike, informative: ArrayLike) -> None:
+        """Fuse one reading: rays (R,) from ``origins`` along unit ``directions``, seen from ``starts`` [m].
+
+        ``hit``: the ray ends on a surface at ``ranges``; a ray that is ``informative`` but not ``hit``
+        saw free space up to ``ranges`` (its maximum range).  Rays that are not informative (dropouts,
+        coasting tracks) are ignored.
+        """
+        self.new_points = np.empty((0, 3))
+        o = np.asarray(origins, dtype=np.float64)
+        d = np.asarray(directions, dtype=np.float64)
+        st = np.asarray(starts, dtype=np.float64)
+        rg = np.asarray(ranges, dtype=np.float64)
+        h = np.asarray(hit, dtype=np.bool_)
+        use = np.asarray(informative, dtype=np.bool_) & np.isfinite(rg)
+        ends = np.where(h, rg - self.config.hit_backoff, rg)
+        cfg = self.config
+        removed = _carve(o[use], d[use], st[use], ends[use], self.free, self.origin, cfg.free_cell,
+                         self.free_dims, self._P, self._alive, self.head, self._next, self.origin, cfg.bucket,
+                         self.bucket_dims, cfg.clear_radius, cfg.clear_backoff)
+        if removed:
+            self.version += 1
+        m = use & h
+        if np.any(m):
+            self.add_points(o[m] + rg[m, None] * d[m])
+
+    def mark_free(self, centre: ArrayLike, radius: float) -> None:
+        """The robot has been here: the cells within ``radius`` [m] of ``centre`` are seen free."""
+        c = np.asarray(centre, dtype=np.float64)
+        _mark_ball(self.free, self.origin, self.config.free_cell, self.free_dims, c[0], c[1], c[2], radius)
+
+    def distance(self, p: ArrayLike, r: float | None = None) -> float:
+        """Distance [m] from ``p`` to the nearest surface point (exact below ``r``, default ``bucket``)."""
+        q = np.asarray(p, dtype=np.float64)
+        rr = self.config.bucket if r is None else min(float(r), self.config.bucket)
+        return float(nearest_distance(q[0], q[1], q[2], rr, *self.arrays()))
+
+    def is_seen_free(self, p: ArrayLike) -> bool:
+        """True if the cell holding ``p`` has been seen free (False outside the map)."""
+        idx = np.floor((np.asarray(p, dtype=np.float64) - self.origin) / self.config.free_cell).astype(np.int64)
+        if np.any(idx < 0) or np.any(idx >= self.free_dims):
+            return False
+        return bool(self.free[tuple(idx)])
+
+    def inside(self, p: ArrayLike) -> bool:
+        """True if ``p`` lies in the mapped box."""
+        q = np.asarray(p, dtype=np.float64)
+        top = self.origin + self.free_dims * self.config.free_cell
+        return bool(np.all(q >= self.origin) and np.all(q < top))

@@ -1,0 +1,273 @@
+"""The potential over the sensed map: Khatib's repulsion as a cost, and what unseen space costs.
+
+The planner's field is the sum of an attraction (the length still to go to the goal, which the
+search in :mod:`navstack.planner.search` measures along curvature-bounded paths, so its only
+minimum is the goal) and this module's **repulsion**, felt by the tip sphere at a point ``p``
+with ``d`` the distance from ``p`` to the nearest sensed surface point (:class:`SensedMap`):
+
+* ``d < r_block`` (the tip radius plus ``margin``): **forbidden** (infinite potential);
+* ``r_block <= d < r_influence``: ``w_repulse * ((r_influence - d) / (r_influence - r_block))^2``
+  per metre of path, Khatib's density-independent repulsion made a cost: the path keeps to the
+  middle of an opening wherever it has room;
+* the cell of ``p`` not yet seen free and ``d < r_unseen``: ``w_unseen_surface`` per metre (the
+  sampled surface probably continues between its samples: an opening is only an opening once a
+  ray has gone through it, but it stays allowed, so the robot goes and looks when nothing
+  better is known);
+* otherwise, not seen free: ``w_unseen`` per metre (slightly prefer what has been seen).
+
+:func:`cost_rate` is the numba kernel the search calls at every sample; :class:`Repulsion` holds
+the parameters.  Units: metres, cost in metres of equivalent free path.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+from navstack.planner.map import nearest_distance
+
+__all__ = ["Repulsion", "cost_rate"]
+
+BLOCKED = -1.0
+"""What :func:`cost_rate` returns for a forbidden point."""
+
+
+@dataclass(frozen=True)
+class Repulsion:
+    """Parameters of the repulsive potential (metres; weights per metre of path).
+
+    Attributes:
+        body_radius: radius of the tip [m].
+        margin: smallest clearance a planned path keeps from sensed surfaces [m].
+        influence: distance from a surface point below which it repels [m].
+        w_repulse: cost per metre at ``d = r_block``, falling quadratically to 0 at ``influence``.
+        unseen_radius: unseen space within this distance of a surface point is probably surface [m].
+        w_unseen_surface: cost per metre there.
+        w_unseen: cost per metre of other unseen space.
+    """
+
+    body_radius: float = 0.025
+    margin: float = 0.01
+    influence: float = 0.075
+    w_repulse: float = 2.0
+    unseen_radius: float = 0.065
+    w_unseen_surface: float = 6.0
+    w_unseen: float = 0.05
+
+    def __post_init__(self) -> None:
+        for name in ("body_radius", "margin", "influence", "w_repulse", "unseen_radius", "w_unseen_surface",
+                     "w_unseen"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+                raise ValueError(f"Repulsion.{name} must be a finite number >= 0, got {v!r}")
+        if self.influence <= self.r_block:
+            raise ValueError(f"Repulsion.influence ({self.influence}) must exceed body_radius + margin "
+                             f"({self.r_block})")
+
+    @property
+    def r_block(self) -> float:
+        """Distance from a surface point below which the tip centre may not go [m]."""
+        return self.body_radius + self.margin
+
+    def vector(self) -> NDArray[np.float64]:
+        """Parameters packed for :func:`cost_rate`."""
+        return np.array([self.r_block, self.influence, self.w_repulse, self.unseen_radius,
+                         self.w_unseen_surface, self.w_unseen])
+
+
+@numba.njit(cache=True)
+def cost_rate(px, py, pz, r_block, prm, P, alive, head, nxt, origin, bucket, bdims, free, fcell,
+              fdims):  # pragma: no cover - jitted
+    """Cost per metre of path at (px, py, pz), or ``BLOCKED`` (-1); ``r_block`` may be relaxed by the caller.
+
+    ``prm`` = :meth:`Repulsion.vector` (``prm[0]``, the nominal r_block, is not used here).
+    """
+    reach = prm[1] if prm[1] > prm[3] else prm[3]
+    d = nearest_distance(px, py, pz, reach, P, alive, head, nxt, origin, bucket, bdims)
+    if d < r_block:
+        return BLOCKED
+    c = 0.0
+    if d < prm[1]:
+        x = (prm[1] - d) / (prm[1] - prm[0])
+        if x > 1.0:
+            x = 1.0
+        c += prm[2] * x * x
+    i = int(math.floor((px - origin[0]) / fcell))
+    j = int(math.floor((py - origin[1]) / fcell))
+    k = int(math.floor((pz - origin[2]) / fcell))
+    seen = 0 <= i < fdims[0] and 0 <= j < fdims[1] and 0 <= k < fdims[2] and free[i, j, k] != 0
+    if not seen:
+        c += prm[4] if d < prm[3] else prm[5]
+    return c
+
+
+# ------------------------------------------------------------------------------------------ navigation function
+@dataclass(frozen=True)
+class NavigationFunction:
+    """Cost-to-go [m] to a goal over a grid: ``values[i, j, k]`` at the centre of cell (i, j, k).
+
+    A Dijkstra wavefront (26-connected) from the cells inside the goal's ball, through cells the
+    tip centre may occupy as far as the map can tell, each step costing its length times (1 +
+    the unseen-surface weight where the cell is unseen and near a sensed surface): the
+    potential's attraction, whose only minimum is the goal.  Cells count as blocked only if
+    every point of the cell is within the blocking radius of a surface point (their centre
+    within ``r_block - half diagonal``), so no free passage is ever closed (the notes: coarse
+    voxels that close a 1.5-3 cm corridor mislead the planner); ``inf`` where unreachable.
+    """
+
+    origin: NDArray[np.float64]
+    cell: float
+    values: NDArray[np.float64]
+
+    def lookup(self, p: NDArray[np.float64]) -> float:
+        idx = np.floor((np.asarray(p) - self.origin) / self.cell).astype(np.int64)
+        if np.any(idx < 0) or np.any(idx >= self.values.shape):
+            return math.inf
+        return float(self.values[tuple(idx)])
+
+
+@numba.njit(cache=True)
+def _rasterize(P, alive, n, origin, cell, dims, radius, out, value):  # pragma: no cover - jitted
+    """Set ``out`` to ``value`` at every cell whose centre is within ``radius`` of a live point."""
+    m = int(math.ceil(radius / cell)) + 1
+    r2 = radius * radius
+    for q in range(n):
+        if not alive[q]:
+            continue
+        ci = int(math.floor((P[q, 0] - origin[0]) / cell))
+        cj = int(math.floor((P[q, 1] - origin[1]) / cell))
+        ck = int(math.floor((P[q, 2] - origin[2]) / cell))
+        for i in range(max(ci - m, 0), min(ci + m + 1, dims[0])):
+            x = origin[0] + (i + 0.5) * cell - P[q, 0]
+            for j in range(max(cj - m, 0), min(cj + m + 1, dims[1])):
+                y = origin[1] + (j + 0.5) * cell - P[q, 1]
+                for k in range(max(ck - m, 0), min(ck + m + 1, dims[2])):
+                    z = origin[2] + (k + 0.5) * cell - P[q, 2]
+                    if x * x + y * y + z * z <= r2:
+                        out[i, j, k] = value
+
+
+@numba.njit(cache=True, inline="always")
+def _push(keys, vals, n, key, val):  # pragma: no cover - jitted
+    """Push onto the binary min-heap ``keys[:n]`` / ``vals[:n]``; returns the new size."""
+    i = n
+    while i > 0:
+        parent = (i - 1) >> 1
+        if keys[parent] <= key:
+            break
+        keys[i] = keys[parent]
+        vals[i] = vals[parent]
+        i = parent
+    keys[i] = key
+    vals[i] = val
+    return n + 1
+
+
+@numba.njit(cache=True, inline="always")
+def _pop(keys, vals, n):  # pragma: no cover - jitted
+    """Pop the smallest of the heap ``keys[:n]``; returns (key, value, new size)."""
+    key0 = keys[0]
+    val0 = vals[0]
+    n -= 1
+    key = keys[n]
+    val = vals[n]
+    i = 0
+    while True:
+        c = 2 * i + 1
+        if c >= n:
+            break
+        if c + 1 < n and keys[c + 1] < keys[c]:
+            c += 1
+        if keys[c] >= key:
+            break
+        keys[i] = keys[c]
+        vals[i] = vals[c]
+        i = c
+    keys[i] = key
+    vals[i] = val
+    return key0, val0, n
+
+
+@numba.njit(cache=True)
+def _wavefront(cost, goal, reach, origin, cell, out):  # pragma: no cover - jitted
+    """Dijkstra over ``cost`` (per-metre weight, < 0 = blocked) from the cells within ``reach`` of ``goal``."""
+    nx, ny, nz = cost.shape
+    out[:] = np.inf
+    cap = 27 * nx * ny * nz + 64
+    keys = np.empty(min(cap, 8 * nx * ny * nz + 64))
+    vals = np.empty(keys.shape[0], dtype=np.int64)
+    n = 0
+    gi = int(math.floor((goal[0] - origin[0]) / cell))
+    gj = int(math.floor((goal[1] - origin[1]) / cell))
+    gk = int(math.floor((goal[2] - origin[2]) / cell))
+    m = int(math.ceil(reach / cell)) + 1
+    for i in range(max(gi - m, 0), min(gi + m + 1, nx)):
+        for j in range(max(gj - m, 0), min(gj + m + 1, ny)):
+            for k in range(max(gk - m, 0), min(gk + m + 1, nz)):
+                x = origin[0] + (i + 0.5) * cell - goal[0]
+                y = origin[1] + (j + 0.5) * cell - goal[1]
+                z = origin[2] + (k + 0.5) * cell - goal[2]
+                if x * x + y * y + z * z <= (reach + 0.5 * cell) ** 2 and cost[i, j, k] >= 0.0:
+                    out[i, j, k] = 0.0
+                    n = _push(keys, vals, n, 0.0, (i * ny + j) * nz + k)
+    steps = np.empty(27)
+    for di in range(-1, 2):
+        for dj in range(-1, 2):
+            for dk in range(-1, 2):
+                steps[(di + 1) * 9 + (dj + 1) * 3 + dk + 1] = cell * math.sqrt(di * di + dj * dj + dk * dk)
+    while n > 0:
+        d, idx, n = _pop(keys, vals, n)
+        k = idx % nz
+        j = (idx // nz) % ny
+        i = idx // (ny * nz)
+        if d > out[i, j, k]:
+            continue
+        c0 = cost[i, j, k]
+        for di in range(-1, 2):
+            ii = i + di
+            if ii < 0 or ii >= nx:
+                continue
+            for dj in range(-1, 2):
+                jj = j + dj
+                if jj < 0 or jj >= ny:
+                    continue
+                for dk in range(-1, 2):
+                    kk = k + dk
+                    if kk < 0 or kk >= nz or (di == 0 and dj == 0 and dk == 0):
+                        continue
+                    c = cost[ii, jj, kk]
+                    if c < 0.0:
+                        continue
+                    nd = d + steps[(di + 1) * 9 + (dj + 1) * 3 + dk + 1] * (1.0 + 0.5 * (c + c0))
+                    if nd < out[ii, jj, kk]:
+                        out[ii, jj, kk] = nd
+                        if n < keys.shape[0]:
+                            n = _push(keys, vals, n, nd, (ii * ny + jj) * nz + kk)
+
+
+def navigation_function(smap, goal: NDArray[np.float64], reach: float, lo: NDArray[np.float64],
+                        hi: NDArray[np.float64], repulsion: Repulsion) -> NavigationFunction:
+    """The :class:`NavigationFunction` to ``goal`` (ball of radius ``reach``) over the box ``lo .. hi`` [m].
+
+    The grid is the map's seen-free grid (same cells), clipped to the box.
+    """
+    free, forigin, fcell, fdims = smap.free_arrays()
+    i0 = np.clip(np.floor((lo - forigin) / fcell).astype(np.int64), 0, fdims - 1)
+    i1 = np.clip(np.ceil((hi - forigin) / fcell).astype(np.int64), 0, fdims)
+    origin = forigin + i0 * fcell
+    dims = np.maximum(i1 - i0, 1)
+    seen = free[i0[0]: i0[0] + dims[0], i0[1]: i0[1] + dims[1], i0[2]: i0[2] + dims[2]]
+    near = np.zeros(tuple(dims), dtype=np.float64)
+    P, alive = smap.arrays()[:2]
+    n = smap.n_slots
+    _rasterize(P, alive, n, origin, fcell, dims, repulsion.unseen_radius, near, repulsion.w_unseen_surface)
+    cost = np.where(seen != 0, 0.0, np.maximum(near, repulsion.w_unseen))
+    half_diag = 0.5 * math.sqrt(3.0) * fcell
+    _rasterize(P, alive, n, origin, fcell, dims, max(repulsion.r_block - half_diag, 0.0), cost, -1.0)
+    out = np.empty(tuple(dims))
+    _wavefront(cost, np.asarray(goal, dtype=np.float64), float(reach), origin, fcell, out)
+    return NavigationFunction(origin=origin, cell=fcell, values=out)

@@ -1,0 +1,557 @@
+"""Descending the potential along paths the tip can follow: a hybrid A* over circular arcs.
+
+The tip is a vehicle with a bounded curvature (``1 / min_turn_radius``): the slithering body
+passes through every bend of its path, so a bend tighter than that would fold the serpentine.
+A grid gradient ignores that and leads into slots the tip can no longer turn into (measured:
+/work/shared/notes/finding-the-way.md), so the planner searches over curvature-bounded motion
+primitives instead (hybrid A*, Dolgov, Thrun, Montemerlo and Diebel 2008, in 3D):
+
+* a **state** is a position, a unit heading and the index of the next goal;
+* its **successors** are arcs of length ``step`` [m]: straight ahead, and at curvature
+  ``kappa_max`` and ``kappa_max / 2`` turning towards ``n_dirs`` directions around the heading;
+* an arc's **cost** is its length plus the potential of :mod:`navstack.planner.potential` along
+  it (sampled every ``step / samples``), plus ``w_turn`` per metre of full-curvature turning;
+  an arc through a forbidden point is discarded;
+* a **goal** is passed when a sample comes within ``goal_fraction`` of its tolerance: the state's
+  goal index advances, so the search looks through every remaining goal and passes each one on
+  the side the next one needs (the notes: "planning must look one goal ahead");
+* the **heuristic** is the straight distance to the next goal's ball plus the distances between
+  the remaining goals (admissible: no path is shorter), weighted by ``epsilon`` >= 1;
+* states are merged in cells of ``cell`` [m] and ``heading_bin`` [rad] of azimuth and
+  elevation (with the goal index); at most ``max_expansions`` states are expanded.
+
+:func:`search` returns a :class:`Plan`: the arcs from the start state, densely sampled, with a
+status: ``REACHED`` (through every goal), ``PARTIAL`` (the budget ran out: the path to the state
+with the smallest heuristic) or ``NO_PATH`` (every reachable state was expanded: boxed in).
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from navstack.planner.map import SensedMap, nearest_distance
+from navstack.planner.potential import (
+    BLOCKED,
+    NavigationFunction,
+    Repulsion,
+    cost_rate,
+    navigation_function,
+)
+
+__all__ = ["NO_PATH", "PARTIAL", "REACHED", "Plan", "SearchConfig", "search"]
+
+REACHED, PARTIAL, NO_PATH = 0, 1, 2
+
+
+@dataclass(frozen=True)
+class SearchConfig:
+    """Parameters of the hybrid A* (metres, radians).
+
+    Attributes:
+        min_turn_radius: smallest radius of curvature of a planned path [m].
+        step: length of one motion primitive [m].
+        samples: cost and collision samples per primitive.
+        n_dirs: turning directions around the heading (at each of the two curvatures).
+        cell: position cell of the closed set [m].
+        heading_bin: azimuth / elevation bin of the closed set [rad].
+        epsilon: heuristic weight (1 = optimal, larger = faster, up to epsilon times longer).
+        w_turn: extra cost per metre of turning at full curvature (prefers straight paths).
+        goal_fraction: a goal is passed when a sample is within this fraction of its tolerance.
+        max_expansions: expansion budget per search.
+        max_length: no path longer than this is searched [m].
+        start_relax: within this arc length of the start, the tip may be as close as
+            ``body_radius + start_margin`` to a surface (it may already be there) [m].
+        start_margin: see ``start_relax`` [m].
+        link_length: the serpentine's links are straight chords of this length behind the tip [m].
+        nav_margin: the navigation function covers the box around the start and the goal grown by
+            this [m].
+        half_curvature: also primitives at half the largest curvature.
+    """
+
+    min_turn_radius: float = 0.25
+    step: float = 0.05
+    samples: int = 5
+    n_dirs: int = 8
+    cell: float = 0.025
+    heading_bin: float = math.radians(10.0)
+    epsilon: float = 1.5
+    w_turn: float = 0.05
+    goal_fraction: float = 0.7
+    max_expansions: int = 20000
+    max_length: float = 3.0
+    start_relax: float = 0.06
+    start_margin: float = 0.003
+    link_length: float = 0.2
+    nav_margin: float = 0.35
+    half_curvature: bool = True
+
+    def __post_init__(self) -> None:
+        for name in ("min_turn_radius", "step", "cell", "heading_bin", "epsilon", "max_length"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ValueError(f"SearchConfig.{name} must be a positive number, got {v!r}")
+        for name in ("w_turn", "start_relax", "start_margin"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise ValueError(f"SearchConfig.{name} must be a number >= 0, got {v!r}")
+        if self.epsilon < 1:
+            raise ValueError(f"SearchConfig.epsilon must be >= 1, got {self.epsilon}")
+        if not 0 < self.goal_fraction <= 1:
+            raise ValueError(f"SearchConfig.goal_fraction must be in (0, 1], got {self.goal_fraction}")
+        for name, lo in (("samples", 1), ("n_dirs", 3), ("max_expansions", 1)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < lo:
+                raise ValueError(f"SearchConfig.{name} must be an integer >= {lo}, got {v!r}")
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A planned tip path: dense samples from the start state.
+
+    Attributes:
+        points: (N, 3) positions [m], ``points[0]`` the start.
+        tangents: (N, 3) unit headings.
+        arc: (N,) arc length from the start [m].
+        goal_index: (N,) index of the next goal at each sample (= number of goals when all passed).
+        status: ``REACHED``, ``PARTIAL`` or ``NO_PATH`` (then a single sample, the start).
+        cost: the path's cost [m]; ``expansions``: states expanded.
+    """
+
+    points: NDArray[np.float64]
+    tangents: NDArray[np.float64]
+    arc: NDArray[np.float64]
+    goal_index: NDArray[np.int64]
+    status: int
+    cost: float
+    expansions: int
+
+    @property
+    def length(self) -> float:
+        return float(self.arc[-1])
+
+    def state(self, s: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Position and unit tangent at arc length ``s`` (clamped), linearly interpolated."""
+        s = min(max(float(s), 0.0), self.length)
+        i = int(np.clip(np.searchsorted(self.arc, s, side="right") - 1, 0, max(len(self.arc) - 2, 0)))
+        if len(self.arc) == 1:
+            return self.points[0].copy(), self.tangents[0].copy()
+        ds = self.arc[i + 1] - self.arc[i]
+        f = 0.0 if ds <= 0 else (s - self.arc[i]) / ds
+        p = self.points[i] + f * (self.points[i + 1] - self.points[i])
+        t = self.tangents[i] + f * (self.tangents[i + 1] - self.tangents[i])
+        return p, t / np.linalg.norm(t)
+
+
+# ------------------------------------------------------------------------------------------ kernels
+@numba.njit(cache=True, inline="always")
+def _basis(hx, hy, hz):  # pragma: no cover - jitted
+    """Orthonormal u, w perpendicular to unit h (Duff et al. 2017)."""
+    sign = 1.0 if hz >= 0.0 else -1.0
+    a = -1.0 / (sign + hz)
+    b = hx * hy * a
+    return (1.0 + sign * hx * hx * a, sign * b, -sign * hx), (b, sign + hy * hy * a, -hy)
+
+
+@numba.njit(cache=True, inline="always")
+def _arc(px, py, pz, hx, hy, hz, nx, ny, nz, kappa, s):  # pragma: no cover - jitted
+    """Position and heading after arc length ``s`` at curvature ``kappa`` turning towards unit ``n``."""
+    if kappa < 1e-9:
+        return px + s * hx, py + s * hy, pz + s * hz, hx, hy, hz
+    a = kappa * s
+    sa = math.sin(a) / kappa
+    ca = (1.0 - math.cos(a)) / kappa
+    c = math.cos(a)
+    sn = math.sin(a)
+    return (px + sa * hx + ca * nx, py + sa * hy + ca * ny, pz + sa * hz + ca * nz,
+            c * hx + sn * nx, c * hy + sn * ny, c * hz + sn * nz)
+
+
+@numba.njit(cache=True)
+def turn_then_straight(px, py, pz, hx, hy, hz, gx, gy, gz, radius):  # pragma: no cover - jitted
+    """Length [m] of the shortest path from (p, unit h) to the point g with curvature <= 1/radius.
+
+    A turn on the circle of ``radius`` towards g, in the plane of h and g - p, then a straight
+    tangent (Dubins' "CS" path to a point, free final heading).  For a goal inside the turning
+    circle, where the tip must first move away, a full turn plus the depth inside (an estimate).
+    """
+    rx, ry, rz = gx - px, gy - py, gz - pz
+    along = rx * hx + ry * hy + rz * hz
+    lx, ly, lz = rx - along * hx, ry - along * hy, rz - along * hz
+    lat = math.sqrt(lx * lx + ly * ly + lz * lz)
+    cx, cy = along, lat - radius
+    q2 = cx * cx + cy * cy
+    if q2 < radius * radius:
+        return 2.0 * math.pi * radius + (radius - math.sqrt(q2))
+    t = math.sqrt(q2 - radius * radius)
+    phi = (math.atan2(cy, cx) + 0.5 * math.pi - math.atan2(t, radius)) % (2.0 * math.pi)
+    if phi > 2.0 * math.pi - 1e-9:
+        phi = 0.0
+    return radius * phi + t
+
+
+@numba.njit(cache=True)
+def _heuristic(px, py, pz, hx, hy, hz, k, k_nav, goals, reach, rest, nav, nav_origin, nav_cell,
+               radius):  # pragma: no cover - jitted
+    """Cost-to-go estimate: the larger of the navigation function (obstacles, no curvature) for goal
+    ``k_nav`` (the straight distance for later goals) and the turn-then-straight length (curvature,
+    no obstacles), plus the distances between the remaining goals."""
+    if k >= goals.shape[0]:
+        return 0.0
+    gx, gy, gz = goals[k, 0], goals[k, 1], goals[k, 2]
+    dx, dy, dz = gx - px, gy - py, gz - pz
+    d = math.sqrt(dx * dx + dy * dy + dz * dz) - reach[k]
+    if k == k_nav:
+        i = int(math.floor((px - nav_origin[0]) / nav_cell))
+        j = int(math.floor((py - nav_origin[1]) / nav_cell))
+        m = int(math.floor((pz - nav_origin[2]) / nav_cell))
+        if 0 <= i < nav.shape[0] and 0 <= j < nav.shape[1] and 0 <= m < nav.shape[2]:
+            v = nav[i, j, m] - 0.87 * nav_cell
+            if v > d:
+                d = v
+    c = turn_then_straight(px, py, pz, hx, hy, hz, gx, gy, gz, radius) - reach[k]
+    if c > d:
+        d = c
+    return (d if d > 0.0 else 0.0) + rest[k]
+
+
+@numba.njit(cache=True)
+def _key(px, py, pz, hx, hy, hz, k, origin, cell, hbin, dims, n_goals1):  # pragma: no cover - jitted
+    ix = int(math.floor((px - origin[0]) / cell))
+    iy = int(math.floor((py - origin[1]) / cell))
+    iz = int(math.floor((pz - origin[2]) / cell))
+    if ix < 0 or iy < 0 or iz < 0 or ix >= dims[0] or iy >= dims[1] or iz >= dims[2]:
+        return -1
+    az = math.atan2(hy, hx) + math.pi
+    el = math.asin(min(1.0, max(-1.0, hz))) + 0.5 * math.pi
+    na = int(math.ceil(2.0 * math.pi / hbin))
+    ne = int(math.ceil(math.pi / hbin)) + 1
+    ia = int(az / hbin) % na
+    ie = min(int(el / hbin), ne - 1)
+    key = ((ix * dims[1] + iy) * dims[2] + iz)
+    key = (key * na + ia) * ne + ie
+    return key * n_goals1 + k
+
+
+@numba.njit(cache=True)
+def _chord_point(qx, qy, qz, node, NP, NPAR, hist, L):  # pragma: no cover - jitted
+    """The point of the path one chord ``L`` behind (qx, qy, qz): back through the node's ancestors'
+    end points, then the history ``hist`` (oldest first, ending at the root), then straight on."""
+    L2 = L * L
+    ax, ay, az = qx, qy, qz
+    cur = node
+    h = hist.shape[0] - 2
+    while True:
+        if cur >= 0:
+            bx, by, bz = NP[cur, 0], NP[cur, 1], NP[cur, 2]
+            cur = NPAR[cur]
+        elif h >= 0:
+            bx, by, bz = hist[h, 0], hist[h, 1], hist[h, 2]
+            h -= 1
+        else:
+            # beyond the history: extend its first segment straight back
+            if hist.shape[0] >= 2:
+                ex, ey, ez = hist[0, 0] - hist[1, 0], hist[0, 1] - hist[1, 1], hist[0, 2] - hist[1, 2]
+            else:
+                ex, ey, ez = ax - qx, ay - qy, az - qz
+            en = math.sqrt(ex * ex + ey * ey + ez * ez)
+            if en < 1e-12:
+                return ax, ay, az
+            bx, by, bz = ax + 10.0 * L * ex / en, ay + 10.0 * L * ey / en, az + 10.0 * L * ez / en
+        dx, dy, dz = bx - qx, by - qy, bz - qz
+        if dx * dx + dy * dy + dz * dz >= L2:
+            # the crossing of |p - q| = L on the segment a -> b
+            sx, sy, sz = bx - ax, by - ay, bz - az
+            wx, wy, wz = ax - qx, ay - qy, az - qz
+            A = sx * sx + sy * sy + sz * sz
+            B = wx * sx + wy * sy + wz * sz
+            C = wx * wx + wy * wy + wz * wz - L2
+            disc = B * B - A * C
+            t = (-B + math.sqrt(disc if disc > 0.0 else 0.0)) / A if A > 0.0 else 0.0
+            return ax + t * sx, ay + t * sy, az + t * sz
+        ax, ay, az = bx, by, bz
+
+
+@numba.njit(cache=True)
+def _chord_clear(qx, qy, qz, node, NP, NPAR, hist, L, r, P, alive, head, nxt, origin, bucket,
+                 bdims):  # pragma: no cover - jitted
+    """True if the last link (a straight chord of length ``L`` from the path behind to q) keeps ``r``."""
+    jx, jy, jz = _chord_point(qx, qy, qz, node, NP, NPAR, hist, L)
+    for f in (0.25, 0.5, 0.75):
+        x = jx + f * (qx - jx)
+        y = jy + f * (qy - jy)
+        z = jz + f * (qz - jz)
+        if nearest_distance(x, y, z, r, P, alive, head, nxt, origin, bucket, bdims) < r:
+            return False
+    return True
+
+
+@numba.njit(cache=True)
+def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, rep, hist,
+                   nav, nav_origin, nav_cell,
+                   P, alive, head, nxt, origin, bucket, bdims, free, fcell, fdims, box_lo, box_hi,
+                   NP, NH, NK, NG, NPAR, NKAP, NDIR, NEND):  # pragma: no cover - jitted
+    """Hybrid A* (see the module docstring).  Node arrays are preallocated by the caller.
+
+    ``cfg`` = [step, samples, cell, heading_bin, epsilon, w_turn, max_expansions, max_length,
+    start_relax, start_margin, kappa_max, body_radius, link_length].
+    Returns (status, final node, expansions, n_nodes).
+    """
+    step = cfg[0]
+    n_samp = int(cfg[1])
+    cell = cfg[2]
+    hbin = cfg[3]
+    eps = cfg[4]
+    w_turn = cfg[5]
+    max_exp = int(cfg[6])
+    max_len = cfg[7]
+    relax = cfg[8]
+    r_start = cfg[11] + cfg[9]
+    kappa_max = cfg[10]
+    link = cfg[12]
+    n_goals = goals.shape[0]
+    cap = NP.shape[0]
+    dims = np.empty(3, dtype=np.int64)
+    for c in range(3):
+        dims[c] = int(math.ceil((box_hi[c] - origin[c]) / cell)) + 1
+    best_g = numba.typed.Dict.empty(key_type=numba.types.int64, value_type=numba.types.float64)
+    closed = numba.typed.Dict.empty(key_type=numba.types.int64, value_type=numba.types.boolean)
+    NP[0] = p0
+    NH[0] = h0
+    NK[0] = k0
+    NG[0] = 0.0
+    NPAR[0] = -1
+    NKAP[0] = 0.0
+    NDIR[0] = 0.0
+    NEND[0] = step
+    n_nodes = 1
+    radius = 1.0 / kappa_max
+    h_start = _heuristic(p0[0], p0[1], p0[2], h0[0], h0[1], h0[2], k0, k0, goals, reach, rest, nav, nav_origin,
+                         nav_cell, radius)
+    heap = [(h_start * eps, 0)]
+    best_node = 0
+    best_h = h_start
+    expansions = 0
+    n_prims = kappas.shape[0]
+    while len(heap) > 0:
+        f, node = heapq.heappop(heap)
+        px, py, pz = NP[node, 0], NP[node, 1], NP[node, 2]
+        hx, hy, hz = NH[node, 0], NH[node, 1], NH[node, 2]
+        k = NK[node]
+        g = NG[node]
+        if k >= n_goals:
+            return 0, node, expansions, n_nodes
+        key = _key(px, py, pz, hx, hy, hz, k, origin, cell, hbin, dims, n_goals + 1)
+        if node > 0:
+            if key in closed:
+                continue
+            closed[key] = True
+        expansions += 1
+        if expansions > max_exp:
+            return 1, best_node, expansions, n_nodes
+        u, w = _basis(hx, hy, hz)
+        for m in range(n_prims):
+            kap = kappas[m]
+            nx = dirs_c[m] * u[0] + dirs_s[m] * w[0]
+            ny = dirs_c[m] * u[1] + dirs_s[m] * w[1]
+            nz = dirs_c[m] * u[2] + dirs_s[m] * w[2]
+            cost = 0.0
+            kk = k
+            ok = True
+            s_end = step
+            ds = step / n_samp
+            for j in range(1, n_samp + 1):
+                s = j * ds
+                qx, qy, qz, _, _, _ = _arc(px, py, pz, hx, hy, hz, nx, ny, nz, kap, s)
+                if qx < box_lo[0] or qy < box_lo[1] or qz < box_lo[2] or qx > box_hi[0] or qy > box_hi[1] \
+                        or qz > box_hi[2]:
+                    ok = False
+                    break
+                rb = r_start if g + s < relax else rep[0]
+                c = cost_rate(qx, qy, qz, rb, rep, P, alive, head, nxt, origin, bucket, bdims, free, fcell, fdims)
+                if c == BLOCKED:
+                    ok = False
+                    break
+                cost += ds * (1.0 + c)
+                while kk < n_goals:
+                    gx = goals[kk, 0] - qx
+                    gy = goals[kk, 1] - qy
+                    gz = goals[kk, 2] - qz
+                    if gx * gx + gy * gy + gz * gz <= reach[kk] * reach[kk]:
+                        kk += 1
+                    else:
+                        break
+                if kk >= n_goals:
+                    s_end = s
+                    break
+            if not ok:
+                continue
+            g2 = g + cost + w_turn * step * kap / kappa_max
+            if g + s_end > max_len:
+                continue
+            qx, qy, qz, tx, ty, tz = _arc(px, py, pz, hx, hy, hz, nx, ny, nz, kap, s_end)
+            # the body: the last link is a straight chord behind the tip, inside the bends of the path
+            rb = r_start if g + s_end < relax + link else rep[0]
+            if not _chord_clear(qx, qy, qz, node, NP, NPAR, hist, link, rb, P, alive, head, nxt, origin, bucket,
+                                bdims):
+                continue
+            tn = math.sqrt(tx * tx + ty * ty + tz * tz)
+            tx /= tn
+            ty /= tn
+            tz /= tn
+            key2 = _key(qx, qy, qz, tx, ty, tz, kk, origin, cell, hbin, dims, n_goals + 1)
+            if key2 < 0 or key2 in closed:
+                continue
+            if key2 in best_g and best_g[key2] <= g2:
+                continue
+            best_g[key2] = g2
+            if n_nodes >= cap:
+                return 1, best_node, expansions, n_nodes
+            q = n_nodes
+            n_nodes += 1
+            NP[q, 0], NP[q, 1], NP[q, 2] = qx, qy, qz
+            NH[q, 0], NH[q, 1], NH[q, 2] = tx, ty, tz
+            NK[q] = kk
+            NG[q] = g2
+            NPAR[q] = node
+            NKAP[q] = kap
+            NDIR[q] = m
+            NEND[q] = s_end
+            h = _heuristic(qx, qy, qz, tx, ty, tz, kk, k0, goals, reach, rest, nav, nav_origin, nav_cell, radius)
+            if h < best_h:
+                best_h = h
+                best_node = q
+            heapq.heappush(heap, (g2 + eps * h, q))
+    return 2, best_node, expansions, n_nodes
+
+
+# ------------------------------------------------------------------------------------------ driver
+class _Buffers:
+    """Preallocated node arrays (reused between searches)."""
+
+    def __init__(self, cap: int) -> None:
+        self.P = np.zeros((cap, 3))
+        self.H = np.zeros((cap, 3))
+        self.K = np.zeros(cap, dtype=np.int64)
+        self.G = np.zeros(cap)
+        self.PAR = np.zeros(cap, dtype=np.int64)
+        self.KAP = np.zeros(cap)
+        self.DIR = np.zeros(cap)
+        self.END = np.zeros(cap)
+
+
+_BUFFERS: dict[int, _Buffers] = {}
+
+
+def primitives(config: SearchConfig) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Curvatures (M,) and turning directions (cos, sin around the heading) of the motion primitives."""
+    kmax = 1.0 / config.min_turn_radius
+    kap = [0.0]
+    c = [1.0]
+    s = [0.0]
+    for frac in ((1.0, 0.5) if config.half_curvature else (1.0,)):
+        for j in range(config.n_dirs):
+            a = 2.0 * math.pi * j / config.n_dirs
+            kap.append(frac * kmax)
+            c.append(math.cos(a))
+            s.append(math.sin(a))
+    return np.array(kap), np.array(c), np.array(s)
+
+
+def search(smap: SensedMap, start: ArrayLike, heading: ArrayLike, goals: ArrayLike, tolerances: ArrayLike,
+           goal_index: int, config: SearchConfig, repulsion: Repulsion, history: ArrayLike | None = None,
+           nav: NavigationFunction | None = None, sample: float = 0.005) -> Plan:
+    """Plan from the state (``start``, unit ``heading``) through ``goals[goal_index:]`` (see module docstring).
+
+    ``history`` (m, 3): the path already travelled, oldest first, ending at ``start`` (the body
+    lies along it; None = a straight body behind ``start``).  ``nav``: the navigation function of
+    the next goal (computed here when None; see :func:`navigation_region`).
+    """
+    p0 = np.asarray(start, dtype=np.float64)
+    h0 = np.asarray(heading, dtype=np.float64)
+    h0 = h0 / np.linalg.norm(h0)
+    G = np.asarray(goals, dtype=np.float64).reshape(-1, 3)
+    tol = np.asarray(tolerances, dtype=np.float64).reshape(-1)
+    reach = config.goal_fraction * tol
+    rest = np.zeros(len(G))
+    for k in range(len(G) - 2, -1, -1):
+        rest[k] = rest[k + 1] + max(0.0, float(np.linalg.norm(G[k + 1] - G[k])) - reach[k + 1])
+    k0 = int(goal_index)
+    while k0 < len(G) and float(np.linalg.norm(p0 - G[k0])) <= reach[k0]:
+        k0 += 1  # already there
+    if k0 < len(G) and nav is None:
+        lo, hi = navigation_region(p0, G[k0], config)
+        nav = navigation_function(smap, G[k0], float(reach[k0]), lo, hi, repulsion)
+    if nav is None:
+        nav = NavigationFunction(origin=np.zeros(3), cell=1.0, values=np.zeros((1, 1, 1)))
+    hist = np.asarray(history, dtype=np.float64).reshape(-1, 3) if history is not None else None
+    if hist is None or len(hist) < 2:
+        hist = np.array([p0 - 0.5 * h0, p0])
+    kap, dc, ds = primitives(config)
+    cap = int(min(config.max_expansions * len(kap) + 1, 2_000_000))
+    buf = _BUFFERS.get(cap)
+    if buf is None:
+        buf = _BUFFERS[cap] = _Buffers(cap)
+    cfg = np.array([config.step, config.samples, config.cell, config.heading_bin, config.epsilon, config.w_turn,
+                    config.max_expansions, config.max_length, config.start_relax, config.start_margin,
+                    1.0 / config.min_turn_radius, repulsion.body_radius, config.link_length])
+    rep = repulsion.vector()
+    free, forigin, fcell, fdims = smap.free_arrays()
+    box_lo = smap.origin
+    box_hi = smap.origin + smap.free_dims * fcell - 1e-9
+    status, last, expansions, _ = _search_kernel(
+        p0, h0, k0, G, reach, rest, kap, dc, ds, cfg, rep, hist, nav.values, nav.origin, nav.cell,
+        *smap.arrays(), free, fcell, fdims,
+        box_lo, box_hi, buf.P, buf.H, buf.K, buf.G, buf.PAR, buf.KAP, buf.DIR, buf.END)
+    if status == PARTIAL and last == 0:
+        status = NO_PATH  # no state closer to the goal than the start: no way on
+    return _densify(buf, int(status), int(last), int(expansions), p0, h0, k0, kap, dc, ds,
+                    config.step, sample)
+
+
+def navigation_region(p0: NDArray[np.float64], goal: NDArray[np.float64],
+                      config: SearchConfig) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The box [m] over which the navigation function to ``goal`` is computed for a search from ``p0``."""
+    lo = np.minimum(p0, goal) - config.nav_margin
+    hi = np.maximum(p0, goal) + config.nav_margin
+    return lo, hi
+
+
+def _densify(buf: _Buffers, status: int, last: int, expansions: int, p0, h0, k0: int, kap, dc, ds, step: float,
+             sample: float) -> Plan:
+    chain = []
+    node = last
+    while node > 0:
+        chain.append(node)
+        node = int(buf.PAR[node])
+    chain.reverse()
+    pts = [p0.copy()]
+    tans = [h0.copy()]
+    ks = [k0]
+    for node in chain:
+        par = int(buf.PAR[node])
+        p, h = buf.P[par], buf.H[par]
+        m = int(buf.DIR[node])
+        u, w = _basis(h[0], h[1], h[2])
+        n = dc[m] * np.array(u) + ds[m] * np.array(w)
+        length = float(buf.END[node])
+        count = max(1, int(math.ceil(length / sample)))
+        for j in range(1, count + 1):
+            x = _arc(p[0], p[1], p[2], h[0], h[1], h[2], n[0], n[1], n[2], float(buf.KAP[node]), length * j / count)
+            pts.append(np.array(x[:3]))
+            t = np.array(x[3:])
+            tans.append(t / np.linalg.norm(t))
+            ks.append(int(buf.K[node]) if j == count else int(buf.K[par]))
+    P = np.array(pts)
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))])
+    cost = float(buf.G[last]) if chain else 0.0
+    if status == NO_PATH:
+        P, arc = P[:1], arc[:1]
+        tans, ks = tans[:1], ks[:1]
+    return Plan(points=P, tangents=np.array(tans), arc=arc, goal_index=np.array(ks, dtype=np.int64),
+                status=status, cost=cost, expansions=expansions)

@@ -1,0 +1,101 @@
+"""Steering along a plan: the commanded tip runs along the planned arcs at a safe speed.
+
+The planned path (:class:`navstack.planner.search.Plan`) is curvature-bounded by construction, so
+the command follows it exactly: ``x_d(t + dt)`` is the plan's point ``v dt`` farther on, its
+heading the plan's tangent.  What this module decides is the speed ``v``:
+
+* ``v_max`` in the open, falling linearly to ``v_min`` as the tip's clearance to the nearest sensed
+  surface (:meth:`SensedMap.distance` minus the tip radius) falls from ``slow_clearance`` to
+  ``stop_clearance`` (the repulsion as a brake: the sensors get more readings per centimetre
+  where it matters), and to zero below ``stop_clearance`` when the plan ahead comes closer still;
+* at most ``sqrt(2 accel remaining)``, so the tip stops at the end of the plan (the final goal, or
+  the end of a partial plan) without overshoot; it changes by at most ``accel dt`` per step;
+* scaled down while the actual tip lags the command by more than ``max_lead / 2`` (zero at
+  ``max_lead``): the command never runs away from a robot that cannot follow.
+
+Units: metres, seconds.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from navstack.planner.search import Plan
+
+__all__ = ["PlanFollower", "SteeringConfig"]
+
+
+@dataclass(frozen=True)
+class SteeringConfig:
+    """Speed rules of :class:`PlanFollower` (metres, seconds).
+
+    Attributes:
+        v_max: cruise speed [m/s].
+        v_min: speed at ``stop_clearance`` [m/s].
+        accel: largest change of speed [m/s^2].
+        slow_clearance: clearance below which the speed falls [m].
+        stop_clearance: clearance at which the speed is ``v_min`` [m].
+        max_lead: the command waits when it leads the actual tip by this much [m].
+    """
+
+    v_max: float = 0.06
+    v_min: float = 0.02
+    accel: float = 0.1
+    slow_clearance: float = 0.05
+    stop_clearance: float = 0.01
+    max_lead: float = 0.03
+
+    def __post_init__(self) -> None:
+        for name in ("v_max", "v_min", "accel", "slow_clearance", "stop_clearance", "max_lead"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+                raise ValueError(f"SteeringConfig.{name} must be a positive number, got {v!r}")
+        if self.v_min > self.v_max:
+            raise ValueError(f"SteeringConfig.v_min ({self.v_min}) exceeds v_max ({self.v_max})")
+        if self.stop_clearance >= self.slow_clearance:
+            raise ValueError("SteeringConfig.stop_clearance must be below slow_clearance")
+
+
+class PlanFollower:
+    """The commanded tip on a plan: arc position ``s`` [m] and speed ``v`` [m/s]."""
+
+    def __init__(self, plan: Plan, config: SteeringConfig, speed: float = 0.0) -> None:
+        self.plan = plan
+        self.config = config
+        self.s = 0.0
+        self.v = float(speed)
+
+    @property
+    def remaining(self) -> float:
+        """Plan length still ahead [m]."""
+        return self.plan.length - self.s
+
+    def state(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The commanded position and heading now."""
+        return self.plan.state(self.s)
+
+    def target_speed(self, clearance: float, lag: float) -> float:
+        """The speed the rules above allow, from the tip's ``clearance`` [m] and the tip's ``lag`` [m]."""
+        cfg = self.config
+        f = (clearance - cfg.stop_clearance) / (cfg.slow_clearance - cfg.stop_clearance)
+        v = cfg.v_min + (cfg.v_max - cfg.v_min) * min(max(f, 0.0), 1.0)
+        v = min(v, math.sqrt(2.0 * cfg.accel * max(self.remaining, 0.0)))
+        v *= min(max((cfg.max_lead - lag) / (0.5 * cfg.max_lead), 0.0), 1.0)
+        return v
+
+    def advance(self, dt: float, clearance: float, lag: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Move the command by one period ``dt`` [s]; return the new position and velocity [m/s]."""
+        cfg = self.config
+        target = self.target_speed(clearance, lag)
+        self.v = min(max(target, self.v - cfg.accel * dt), self.v + cfg.accel * dt)
+        if self.v < 1e-4 * cfg.v_max:
+            self.v = 0.0
+        s_new = min(self.s + self.v * dt, self.plan.length)
+        self.v = (s_new - self.s) / dt
+        self.s = s_new
+        p, t = self.plan.state(self.s)
+        return p, t * self.v
