@@ -23,12 +23,22 @@ failing controller is seen cutting through members and the depth is reported
 as a negative ``min_clearance``.  The trial ends when every goal is reached,
 at ``time_limit``, when the planner reports a stall, or when the arm is pinned
 at a joint limit while the tip lags its command.
+
+Moving obstacles (interfaces.md section 2b) are placed at the step's time by
+``Scene.update`` once per control step, before the sensors and the clearance
+query read them; the planner and controller are told nothing of them.
+
+Before anything is simulated, ``run_trial`` refuses (``WorldError``, naming the
+field) a goal out of reach (:func:`check_reach`) and a robot that starts in
+contact with or inside an obstacle (:func:`check_start`), and
+(``TrialInputError``) an output folder it cannot write (:func:`check_out_dir`).
 """
 
 from __future__ import annotations
 
 import json
 import os
+import tempfile
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -40,6 +50,7 @@ from navstack.jpl import BACKBONE_FRAMES, jpl_serpentine
 from navstack.planner import PlannerConfig
 from navstack.sensing import SensorConfig
 from navstack.sim.servo import ServoConfig
+from navstack.world import WorldError
 
 REASONS = ("reached", "collision", "timeout", "stalled", "joint_limit", "error")
 
@@ -125,9 +136,42 @@ def _write_json(path: Path, data: dict[str, Any]) -> None:
     os.replace(tmp, path)
 
 
+class TrialInputError(ValueError):
+    """Bad input to :func:`run_trial` other than the world (which raises ``WorldError``): an unknown
+    controller or planner, a bad seed, an output folder that cannot be written."""
+
+
 def _check_choice(name: str, value: str, allowed: tuple[str, ...]) -> None:
     if value not in allowed:
-        raise ValueError(f"{name} must be one of {', '.join(allowed)}; got {value!r}")
+        raise TrialInputError(f"{name} must be one of {', '.join(allowed)}; got {value!r}")
+
+
+def check_out_dir(out_dir: str | os.PathLike) -> Path:
+    """Create the output folder ``out_dir`` if needed and check that files can be written in it, before
+    any simulation; returns it as a ``Path``.
+
+    Raises:
+        TrialInputError: in one plain sentence, when the folder cannot be created or written.
+    """
+    out = Path(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        why = "a file of that name exists" if isinstance(e, FileExistsError) else _reason(e)
+        raise TrialInputError(f"cannot create the output folder {out} ({why}); choose another --out") from e
+    if not out.is_dir():
+        raise TrialInputError(f"the output folder {out} is a file, not a folder; choose another --out")
+    try:
+        with tempfile.NamedTemporaryFile(dir=out, prefix=".navstack-write-test-"):
+            pass
+    except OSError as e:
+        raise TrialInputError(f"cannot write into the output folder {out} ({_reason(e)}); "
+                              f"choose another --out") from e
+    return out
+
+
+def _reason(e: OSError) -> str:
+    return (e.strerror or type(e).__name__).lower()
 
 
 def run_trial(
@@ -144,10 +188,13 @@ def run_trial(
 
     ``world`` is a :class:`navstack.world.World`, a path to a world file, or a parsed world dict.
     With ``out_dir`` the trial writes ``result.json`` and ``trajectory.npz``
-    there (and ``scene.png`` with ``render=True``).  Bad input (an unreadable
-    world, an unknown controller or planner) raises ``WorldError`` /
-    ``ValueError``; a failure inside the simulation is returned as reason
-    ``error`` with the message in ``error``.
+    there (and ``scene.png`` with ``render=True``).  Bad input raises before
+    anything is simulated: ``WorldError`` for the world (unreadable, invalid,
+    a goal out of reach, a robot starting in contact with an obstacle) and
+    ``TrialInputError`` for the rest (an unknown controller or planner, a bad
+    seed, an output folder that cannot be written); both are ``ValueError``.
+    A failure inside the simulation is returned as reason ``error`` with the
+    message in ``error`` (``navstack run`` then exits 1).
     """
     from navstack.registry import controller_names, planner_names
     from navstack.world import World, load_world, world_from_dict
@@ -155,16 +202,15 @@ def run_trial(
     _check_choice("controller", controller, controller_names())
     _check_choice("planner", planner, planner_names())
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+        raise TrialInputError(f"seed must be a non-negative integer, got {seed!r}")
     cfg = config or TrialConfig()
     if isinstance(world, dict):
         world = world_from_dict(world)
     elif not isinstance(world, World):
         world = load_world(world)
     check_reach(world)
-    out = Path(out_dir) if out_dir is not None else None
-    if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
+    check_start(world)
+    out = check_out_dir(out_dir) if out_dir is not None else None
 
     sim = _Simulation(world, controller, planner, int(seed), cfg)
     wall0 = time.perf_counter()
@@ -216,7 +262,7 @@ def make_scripted_planner(ctx):
 
 
 def check_reach(world) -> None:
-    """Refuse goals that no configuration can reach (``ValueError`` naming the goal).
+    """Refuse goals that no configuration can reach (``WorldError`` naming the goal).
 
     A conservative test: a goal farther from the lathe bed's travel (the segment swept by frame 1 over
     the lathe's joint range) than the sum of the fixed distances between consecutive frame origins 1..21
@@ -238,11 +284,40 @@ def check_reach(world) -> None:
         t = float(np.clip((g - a) @ ab / max(float(ab @ ab), 1e-12), 0.0, 1.0))
         dist = float(np.linalg.norm(g - (a + t * ab)))
         if dist > reach + goal.tolerance:
-            where = world.source if world.source is not None else world.name
-            raise ValueError(
-                f"{where}: goals[{k}].position {np.round(g, 3).tolist()} is {dist:.2f} m from the lathe bed's "
-                f"travel, beyond the robot's reach ({reach:.2f} m): no configuration reaches it"
-            )
+            raise WorldError(
+                f"{np.round(g, 3).tolist()} is {dist:.2f} m from the lathe bed's travel (placed by robot.base "
+                f"and robot.q0[0]), beyond the robot's reach ({reach:.2f} m): no configuration reaches it",
+                file=world.source, json_path=f"goals[{k}].position")
+
+
+def check_start(world) -> None:
+    """Refuse a robot that starts in contact with or inside an obstacle (``WorldError`` naming it).
+
+    Checked in PyBullet: the robot at ``q0`` and the obstacles at t = 0 (moving ones displaced by their
+    ``d(0)``); an obstacle at a signed distance <= 0 m from any robot link is named by its JSON path
+    (``obstacles[3]``).  Such a trial would count a contact from its first step; refusing it makes the
+    world's mistake bad input.  A robot part inside a closed *mesh* is not seen (meshes are surfaces).
+    """
+    from navstack.sim._bullet import direct_client
+    from navstack.sim.body import RobotBody
+    from navstack.sim.scene import Scene
+
+    client = direct_client()
+    try:
+        body = RobotBody.build(client, jpl_serpentine(), world.robot.base.transform(),
+                               serpentine_radius=world.robot.serpentine_radius, arm_radius=world.robot.arm_radius)
+        body.reset(world.robot.q0)
+        scene = Scene.build(client, world)
+        client.performCollisionDetection()
+        hits = scene.touching(body.body_id)
+    finally:
+        client.disconnect()
+    if hits:
+        i, d = hits[0]
+        how = "touches" if d > -1e-6 else f"penetrates {-d:.3g} m into"
+        others = "" if len(hits) == 1 else f" (so do obstacles {', '.join(f'[{j}]' for j, _ in hits[1:])})"
+        raise WorldError(f"the robot at q0 {how} this {world.obstacles[i].type} at t = 0{others}; a trial must "
+                         f"start clear of every obstacle", file=world.source, json_path=f"obstacles[{i}]")
 
 
 def _save(out: Path | None, sim: _Simulation, reason: str, error: str | None, wall: float, render: bool):
@@ -397,6 +472,8 @@ class _Simulation:
             self.servo.command(theta_d, self.controller.thetadot_d)
             self.servo.step()
             self.steps += 1
+            if self.scene.update(self.steps * self.dt):  # moving obstacles, before rays and clearance
+                self.client.performCollisionDetection()
             q, _ = self.body.joint_state()
             tip, F = self._measure(q)
             self.tip_error_max = max(self.tip_error_max, float(np.linalg.norm(tip - x_d)))
