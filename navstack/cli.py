@@ -1,8 +1,11 @@
 """The ``navstack`` command line.
 
-Exit status (interfaces.md section 3): 0 when the command ran to an outcome
-(a trial that failed is still an outcome), 2 for bad input (the message says
-what and where), 1 for an internal error.
+Exit status (interfaces.md section 3): 0 when the command ran to an outcome (a trial that failed is still
+an outcome), 2 for bad input (the message says what and where), 1 for an internal error.  For ``run`` and
+``demo`` that means: a world file that is invalid, too large, not a regular file, has a mesh outside its
+folder, a goal out of reach or a robot starting in contact with an obstacle, or an ``--out`` that cannot
+be written, all exit 2 before anything is simulated; an exception inside the simulation is recorded in
+``result.json`` as reason ``error`` (interfaces.md) and exits 1, as does any other exception.
 """
 
 from __future__ import annotations
@@ -11,7 +14,16 @@ import argparse
 import sys
 from pathlib import Path
 
+from navstack import __version__
+
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT = 0, 1, 2
+
+DESCRIPTION = "navstack: sensor-based slithering control of the JPL serpentine robot, simulated in PyBullet."
+EPILOG = """exit status: 0 the command ran to an outcome (a failed trial is an outcome), 2 bad input (the
+message names the file, the JSON path and what was expected), 1 internal error.
+
+Start with 'navstack demo'; 'navstack COMMAND --help' describes a command."""
+BYTES_PER_MB = 1024 * 1024
 
 
 class BadInput(Exception):
@@ -30,21 +42,30 @@ def _summary(result) -> str:
     )
 
 
-def _run(args: argparse.Namespace) -> int:
-    from navstack.trial import run_trial
+def _load(args: argparse.Namespace, path: str):
+    """The world file at ``path`` with the ``--allow-mesh-outside`` / ``--max-world-mb`` options."""
+    from navstack.world import load_world
 
-    result = run_trial(
-        args.world,
-        controller=args.controller,
-        planner=args.planner,
-        seed=args.seed,
-        out_dir=args.out,
-        render=args.render,
-    )
+    return load_world(path, allow_mesh_outside=args.allow_mesh_outside,
+                      max_bytes=int(args.max_world_mb * BYTES_PER_MB))
+
+
+def _run(args: argparse.Namespace) -> int:
+    from navstack.trial import TrialInputError, check_out_dir, run_trial
+
+    try:
+        out = check_out_dir(args.out)
+    except TrialInputError as exc:
+        raise BadInput(str(exc)) from exc
+    world = _load(args, args.world)
+    result = run_trial(world, controller=args.controller, planner=args.planner, seed=args.seed,
+                       out_dir=out, render=args.render)
     print(_summary(result))
-    if result.error:
-        print(f"  error: {result.error}", file=sys.stderr)
-    print(f"wrote {Path(args.out) / 'result.json'} and trajectory.npz")
+    print(f"wrote {out / 'result.json'}, trajectory.npz{' and scene.png' if args.render and not result.error else ''}")
+    if result.reason == "error":
+        print(f"navstack run: internal error during the simulation (recorded in result.json as reason "
+              f"\"error\"): {result.error}", file=sys.stderr)
+        return EXIT_INTERNAL
     return EXIT_OK
 
 
@@ -55,30 +76,35 @@ def _demo(args: argparse.Namespace) -> int:
 
     world = world_from_dict(paper_truss_world())
     print(f"navstack demo: {world.description}")
-    results = []
+    status = EXIT_OK
     for controller in args.controller or ["slither", "tip-only"]:
         out = Path(args.out) / controller
         result = run_trial(world, controller=controller, planner=args.planner, seed=args.seed, out_dir=out, render=True)
         print(f"[{controller}] " + _summary(result))
         print(f"  wrote {out}/result.json, trajectory.npz, scene.png")
-        results.append(result)
-    return EXIT_OK
+        if result.reason == "error":
+            print(f"navstack demo: internal error during the simulation: {result.error}", file=sys.stderr)
+            status = EXIT_INTERNAL
+    return status
 
 
 def _check_world(args: argparse.Namespace) -> int:
-    from navstack.trial import check_reach
-    from navstack.world import WorldError, load_world
+    from navstack.trial import check_reach, check_start
+    from navstack.world import WorldError
 
     status = EXIT_OK
     for path in args.files:
         try:
-            w = load_world(path)
+            w = _load(args, path)
             check_reach(w)
-        except (WorldError, ValueError, OSError) as exc:
+            check_start(w)
+        except WorldError as exc:
             print(f"navstack check-world: error: {exc}", file=sys.stderr)
             status = EXIT_BAD_INPUT
             continue
-        print(f"{path}: ok ({w.name}: {len(w.obstacles)} obstacles, {len(w.goals)} goals, time limit {w.time_limit} s)")
+        moving = sum(getattr(o, "motion", None) is not None for o in w.obstacles)
+        print(f"{path}: ok ({w.name}: {len(w.obstacles)} obstacles{f' ({moving} moving)' if moving else ''}, "
+              f"{len(w.goals)} goals, time limit {w.time_limit:g} s, robot clear of every obstacle at t = 0)")
     return status
 
 
@@ -123,13 +149,56 @@ def _model(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _non_negative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {text!r}")
+    return value
+
+
+def _positive_mb(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (value > 0 and value * BYTES_PER_MB < 2**62):
+        raise argparse.ArgumentTypeError(f"expected a positive number of megabytes, got {text!r}")
+    return value
+
+
+def _families_help() -> str:
+    """The world families with their one-line summaries and difficulty knobs (from the registry)."""
+    from navstack.registry import FAMILIES
+
+    lines = ["families, and what --difficulty (0 easy .. 1 hard) changes in each:"]
+    for e in FAMILIES.values():
+        lines += [f"  {e.name:16s}{e.summary}", f"  {'':16s}difficulty: {e.difficulty}"]
+    return "\n".join(lines)
+
+
+def _add_world_options(parser: argparse.ArgumentParser) -> None:
+    from navstack.world import MAX_WORLD_BYTES
+
+    parser.add_argument("--allow-mesh-outside", action="store_true",
+                        help="accept mesh paths that are absolute or lead outside the world file's folder "
+                             "(refused by default)")
+    parser.add_argument("--max-world-mb", type=_positive_mb, default=MAX_WORLD_BYTES / BYTES_PER_MB,
+                        metavar="MB", help=f"refuse world files larger than this (default "
+                                           f"{MAX_WORLD_BYTES / BYTES_PER_MB:g} MB)")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    from navstack.registry import controller_names, planner_names
+    from navstack.registry import FAMILIES, controller_names, planner_names
 
     CONTROLLERS, PLANNERS = controller_names(), planner_names()
+    raw = argparse.RawDescriptionHelpFormatter
 
-    p = argparse.ArgumentParser(prog="navstack", description=__doc__.splitlines()[0])
-    sub = p.add_subparsers(dest="command", required=True)
+    p = argparse.ArgumentParser(prog="navstack", description=DESCRIPTION, epilog=EPILOG, formatter_class=raw)
+    p.add_argument("--version", action="version", version=f"navstack {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     d = sub.add_parser("demo", help="the paper's truss demo, headless (writes result.json, trajectory.npz, scene.png)")
     d.add_argument("--out", default="out/demo", help="output folder (default: out/demo)")
@@ -140,7 +209,7 @@ def build_parser() -> argparse.ArgumentParser:
         choices=CONTROLLERS,
         help="repeatable (default: slither, then the tip-only baseline)",
     )
-    d.add_argument("--seed", type=int, default=0)
+    d.add_argument("--seed", type=_non_negative_int, default=0)
     d.set_defaults(func=_demo)
 
     r = sub.add_parser("run", help="run one closed-loop trial headless")
@@ -148,22 +217,27 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out", required=True, help="output folder for result.json and trajectory.npz")
     r.add_argument("--controller", choices=CONTROLLERS, default="slither")
     r.add_argument("--planner", choices=PLANNERS, default="field")
-    r.add_argument("--seed", type=int, default=0, help="seed of the sensor noise (default 0)")
+    r.add_argument("--seed", type=_non_negative_int, default=0, help="seed of the sensor noise (default 0)")
     r.add_argument("--render", action="store_true", help="also write scene.png (TinyRenderer)")
+    _add_world_options(r)
     r.set_defaults(func=_run)
 
-    c = sub.add_parser("check-world", help="validate world files without running them")
+    c = sub.add_parser("check-world", help="validate world files without running them (also: goals in reach, "
+                                           "robot clear of every obstacle at the start)")
     c.add_argument("files", nargs="+")
+    _add_world_options(c)
     c.set_defaults(func=_check_world)
 
-    g = sub.add_parser("generate", help="write a randomized world of a family")
-    g.add_argument("family")
-    g.add_argument("--seed", type=int, required=True)
+    g = sub.add_parser("generate", help="write a randomized world of a family", epilog=_families_help(),
+                       formatter_class=raw)
+    g.add_argument("family", choices=tuple(FAMILIES), metavar="FAMILY", help="one of the families listed below")
+    g.add_argument("--seed", type=int, required=True, help="the world's seed (same seed, same world)")
     g.add_argument("--difficulty", type=float, default=0.5, help="0 (easy) .. 1 (hard), default 0.5")
     g.add_argument("--out", required=True, help="world file to write")
     g.set_defaults(func=_generate)
 
-    t = sub.add_parser("trials", help="run many trials in parallel into DIR/results.jsonl (resumable)")
+    t = sub.add_parser("trials", help="run many trials in parallel into DIR/results.jsonl (resumable)",
+                       epilog=_families_help(), formatter_class=raw)
     from navstack.sweep import add_trials_arguments
 
     add_trials_arguments(t)
@@ -183,21 +257,34 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    from navstack.trial import TrialInputError
     from navstack.world import WorldError
 
+    name = f"navstack {args.command}"
+    # for these commands every input is checked up front, so any other exception is internal
+    checked = args.command in ("run", "demo", "check-world")
     try:
         return args.func(args)
-    except (WorldError, BadInput, ValueError, OSError) as exc:  # OSError: an unusable --out or input path
-        print(f"navstack {args.command}: error: {exc}", file=sys.stderr)
+    except (WorldError, BadInput, TrialInputError) as exc:
+        print(f"{name}: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except (ValueError, OSError) as exc:  # other commands: an unusable path or value given by the user
+        if checked:
+            return _internal(name, exc, argv)
+        print(f"{name}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
-        print(f"navstack {args.command}: interrupted", file=sys.stderr)
+        print(f"{name}: interrupted", file=sys.stderr)
         return 130
     except Exception as exc:  # noqa: BLE001 - internal error: exit 1 with a one-line message
-        print(f"navstack {args.command}: internal error: {type(exc).__name__}: {exc}", file=sys.stderr)
-        if "--debug" in (argv or sys.argv):
-            raise
-        return EXIT_INTERNAL
+        return _internal(name, exc, argv)
+
+
+def _internal(name: str, exc: BaseException, argv: list[str] | None) -> int:
+    print(f"{name}: internal error: {type(exc).__name__}: {exc}", file=sys.stderr)
+    if "--debug" in (argv or sys.argv):
+        raise exc
+    return EXIT_INTERNAL
 
 
 if __name__ == "__main__":
