@@ -51,15 +51,12 @@ def _load(args: argparse.Namespace, path: str):
 
 
 def _run(args: argparse.Namespace) -> int:
-    from navstack.trial import TrialInputError, check_out_dir, run_trial
+    from navstack.trial import run_trial
 
-    try:
-        out = check_out_dir(args.out)
-    except TrialInputError as exc:
-        raise BadInput(str(exc)) from exc
-    world = _load(args, args.world)
-    result = run_trial(world, controller=args.controller, planner=args.planner, seed=args.seed,
-                       out_dir=out, render=args.render)
+    # bad input raises before anything is simulated: WorldError, TrialInputError (an unwritable --out)
+    result = run_trial(_load(args, args.world), controller=args.controller, planner=args.planner, seed=args.seed,
+                       out_dir=args.out, render=args.render)
+    out = Path(args.out)
     print(_summary(result))
     print(f"wrote {out / 'result.json'}, trajectory.npz{' and scene.png' if args.render and not result.error else ''}")
     if result.reason == "error":
