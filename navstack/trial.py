@@ -285,8 +285,8 @@ def check_reach(world) -> None:
         dist = float(np.linalg.norm(g - (a + t * ab)))
         if dist > reach + goal.tolerance:
             raise WorldError(
-                f"{np.round(g, 3).tolist()} is {dist:.2f} m from the lathe bed's travel (placed by robot.base "
-                f"and robot.q0[0]), beyond the robot's reach ({reach:.2f} m): no configuration reaches it",
+                f"{np.round(g, 3).tolist()} is {dist:.2f} m from the lathe bed's travel (placed by robot.base), "
+                f"beyond the robot's reach ({reach:.2f} m): no configuration reaches it",
                 file=world.source, json_path=f"goals[{k}].position")
 
 
