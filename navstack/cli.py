@@ -123,6 +123,21 @@ def _model(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _urdf(args: argparse.Namespace) -> int:
+    from navstack import jpl
+    from navstack.urdf import UrdfOptions
+
+    opts = UrdfOptions(serpentine_radius=args.serpentine_radius, arm_radius=args.arm_radius)
+    text = jpl.jpl_serpentine().to_urdf(opts)
+    if args.out is None:
+        sys.stdout.write(text)
+        return EXIT_OK
+    Path(args.out).write_text(text, encoding="utf-8")
+    print(f"wrote {args.out} (20 joints, links dh0..dh21; PyBullet: loadURDF(..., useFixedBase=True, "
+          "flags=URDF_USE_INERTIA_FROM_FILE | URDF_USE_IMPLICIT_CYLINDER))")
+    return EXIT_OK
+
+
 def build_parser() -> argparse.ArgumentParser:
     from navstack.registry import controller_names, planner_names
 
@@ -177,6 +192,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     m = sub.add_parser("model", help="print the robot model (Figure 2 in metres) and the default posture")
     m.set_defaults(func=_model)
+
+    u = sub.add_parser("urdf", help="write the robot as URDF (joint limits, capsule collision geometry, masses)")
+    u.add_argument("--out", help="URDF file to write (default: standard output)")
+    u.add_argument("--serpentine-radius", type=float, default=0.025, help="serpentine capsule radius [m]")
+    u.add_argument("--arm-radius", type=float, default=0.06, help="arm capsule radius [m]")
+    u.set_defaults(func=_urdf)
     return p
 
 
