@@ -104,7 +104,7 @@ class AnimationStats:
     config: AnimationConfig
 
 
-def _robot_points(run: RunData, chain, T0: NDArray[np.float64]) -> NDArray[np.float64]:
+def robot_points(run: RunData, chain, T0: NDArray[np.float64]) -> NDArray[np.float64]:
     """World origins of DH frames 1..21 over the run (every 10th sample) and the tip path [m]."""
     pts = [run.tip_des]
     for q in run.q[::10]:
@@ -119,7 +119,7 @@ def choose_view(run: RunData, config: AnimationConfig) -> View:
     if config.eye is not None:
         return View(target=tuple(map(float, config.target)), eye=tuple(map(float, config.eye)), fov=config.fov)
     T0 = run.world.robot.base.transform()
-    pts = framing_points(run.world, _robot_points(run, jpl_serpentine(), T0))
+    pts = framing_points(run.world, robot_points(run, jpl_serpentine(), T0))
     return auto_view(pts, width=config.width, height=config.height, name=config.view, toward=T0[:3, 3],
                      fov=config.fov)
 

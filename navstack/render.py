@@ -120,14 +120,18 @@ def _direction(points: NDArray[np.float64], name: str, toward: NDArray[np.float6
 
 def auto_view(points: NDArray[np.float64], *, width: int, height: int, name: str = "auto",
               toward: NDArray[np.float64] | None = None, elevation: float = 25.0, fov: float = 45.0,
-              margin: float = 0.06) -> View:
+              margin: float = 0.06, window: tuple[float, float] = (-1.0, 1.0)) -> View:
     """The closest camera of direction ``name`` (:data:`VIEWS`) that keeps all ``points`` (N, 3) in frame.
 
     ``toward``: a point on the side the camera should be (the robot's base), for ``auto``.  ``margin``
-    is the fraction of the picture kept free at each edge.
+    is the fraction of the picture kept free at each edge.  ``window``: the horizontal part of the
+    picture the points go into, as (left, right) from -1 (left edge) to 1 (right edge), containing 0
+    (the viewer keeps its control panel's side free).
     """
     if name not in VIEWS:
         raise ValueError(f"view must be one of {', '.join(VIEWS)}, got {name!r}")
+    if not -1.0 <= window[0] < 0.0 < window[1] <= 1.0:
+        raise ValueError(f"auto_view: window must satisfy -1 <= left < 0 < right <= 1, got {window!r}")
     pts = np.asarray(points, dtype=float).reshape(-1, 3)
     pts = pts[np.isfinite(pts).all(axis=1)]
     if len(pts) == 0:
@@ -138,18 +142,26 @@ def auto_view(points: NDArray[np.float64], *, width: int, height: int, name: str
     r = np.cross(f, [0.0, 0.0, 1.0])
     r /= np.linalg.norm(r)
     u = np.cross(r, f)
-    tan_v = math.tan(math.radians(fov) / 2.0) * (1.0 - 2.0 * margin)
-    tan_h = tan_v * width / height
+    tan_full = math.tan(math.radians(fov) / 2.0)
+    tan_v = tan_full * (1.0 - 2.0 * margin)
+    # the points' x / depth must lie in [lo, hi] (tangent units): the window, less the margin
+    half_w = tan_full * width / height
+    lo, hi = (window[0] + 2.0 * margin) * half_w, (window[1] - 2.0 * margin) * half_w
+    if not lo < 0.0 < hi:
+        raise ValueError(f"auto_view: window {window!r} leaves no room inside the margin {margin!r}")
+
     def fit(target: NDArray[np.float64]) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]:
-        """The nearest distance that keeps every point inside the picture, and the points' offsets."""
+        """The nearest distance that keeps every point inside the picture, and the points' tangents."""
         rel = pts - target
         x, y, zf = rel @ r, rel @ u, rel @ f
-        dist = float(max(np.max(np.abs(x) / tan_h - zf), np.max(np.abs(y) / tan_v - zf), np.max(-zf) + 0.1, 0.3))
+        dist = float(max(np.max(x / hi - zf), np.max(x / lo - zf), np.max(np.abs(y) / tan_v - zf),
+                         np.max(-zf) + 0.1, 0.3))
         return dist, x / (dist + zf), y / (dist + zf)
 
-    for _ in range(3):  # centre the points' picture (perspective makes it lopsided), then fit again
+    for _ in range(3):  # centre the points' picture in the window (perspective makes it lopsided), fit again
         dist, xn, yn = fit(target)
-        target = target + dist * ((xn.max() + xn.min()) / 2.0 * r + (yn.max() + yn.min()) / 2.0 * u)
+        shift_x = (xn.max() + xn.min()) / 2.0 - (lo + hi) / 2.0
+        target = target + dist * (shift_x * r + (yn.max() + yn.min()) / 2.0 * u)
     dist, _, _ = fit(target)
     return View(target=tuple(target), eye=tuple(target + dist * d), fov=fov)
 
