@@ -217,3 +217,16 @@ def test_animation_config_checks_its_fields():
                       ({"fps": float("nan")}, "fps"), ({"target": (0, 0, 0)}, "together")]:
         with pytest.raises(ValueError, match=words):
             AnimationConfig(**kw)
+
+
+def test_cli_run_animate(tmp_path, capsys):
+    world = tmp_path / "straight.json"
+    world.write_text(json.dumps(straight_world(contact=False)))
+    out = tmp_path / "run"
+    assert main(["run", str(world), "--out", str(out), "--planner", "scripted", "--animate", "--render"]) == 0
+    printed = capsys.readouterr().out
+    assert "world.json, scene.png" in printed and "animation.mp4" in printed
+    reader = imageio.get_reader(out / "animation.mp4")
+    run = load_run(out)
+    assert reader.count_frames() == len(frame_times(run.duration, AnimationConfig())) + 22  # 1.5 s held at 15 fps
+    reader.close()
