@@ -230,3 +230,23 @@ def test_cli_run_animate(tmp_path, capsys):
     run = load_run(out)
     assert reader.count_frames() == len(frame_times(run.duration, AnimationConfig())) + 22  # 1.5 s held at 15 fps
     reader.close()
+
+
+def test_robot_rectangle_render_equals_the_full_render(contact_trial):
+    """The per-frame shortcut (render only the robot's pixel rectangle) gives the same picture as
+    rendering the whole frame."""
+    _, out = contact_trial
+    run = load_run(out)
+    cfg = AnimationConfig(width=480, height=272)
+    replay = Replay(run, choose_view(run, cfg), cfg.width, cfg.height)
+    try:
+        for i in np.linspace(0, len(run.t) - 1, 5).astype(int):
+            fast, touching = replay.frame(run.q[i])
+            full, touching_full = replay.frame(run.q[i], full=True)
+            assert touching == touching_full
+            box = replay.robot_box(run.q[i])
+            assert box is not None and (box[2] - box[0]) * (box[3] - box[1]) < 0.8 * cfg.width * cfg.height
+            differ = np.abs(fast.astype(int) - full.astype(int)).max(axis=-1) > 2
+            assert differ.sum() <= 5, (i, differ.sum())
+    finally:
+        replay.close()
