@@ -106,13 +106,15 @@ class Viewer:
     goals: list[Any] = field(default_factory=list)
     speed: float = 1.0
     playing: bool = False
+    clock: float = 0.0
+    """The replay clock [s]; ``index`` is the last sample at or before it."""
     index: int = 0
     obstacles: Any = None
     button: Any = None
     slider: Any = None
     caption: Any = None
     _from_slider: bool = False
-    _lock: threading.Lock = field(default_factory=threading.Lock)
+    _lock: threading.RLock = field(default_factory=threading.RLock)
     _stop: threading.Event = field(default_factory=threading.Event)
 
     @property
@@ -124,9 +126,10 @@ class Viewer:
     def seek(self, t: float) -> None:
         """Show the last control step at or before ``t`` [s] (clipped to the run)."""
         run = self.run
+        t = float(np.clip(t, run.t[0], run.t[-1]))
         i = int(np.clip(np.searchsorted(run.t, t + 1e-9, side="right") - 1, 0, len(run.t) - 1))
         with self._lock:
-            self.index = i
+            self.clock, self.index = t, i
             T0 = run.world.robot.base.transform()
             F = T0 @ jpl_serpentine().frames(run.q[i])
             touching = self.contacts[i]
@@ -166,9 +169,8 @@ class Viewer:
         last = time.monotonic()
         while not self._stop.wait(TICK):
             now = time.monotonic()
-            if self.playing:
-                t = float(self.run.t[self.index]) + (now - last) * self.speed
-                self.seek(t)
+            if self.playing:  # the replay clock runs on between samples (slow speeds too)
+                self.seek(self.clock + (now - last) * self.speed)
                 if self.index >= len(self.run.t) - 1:
                     self.pause()
             last = now
