@@ -25,7 +25,7 @@ viser = pytest.importorskip("viser", reason="the viewer extra is not installed (
 sync_api = pytest.importorskip("playwright.sync_api", reason="Playwright (test extra) is not installed")
 
 CHROMIUM = os.environ.get("NAVSTACK_CHROMIUM") or shutil.which("chromium") or shutil.which("chromium-browser")
-pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="no Chromium installed (Debian: apt-get install chromium)")
+needs_browser = pytest.mark.skipif(CHROMIUM is None, reason="no Chromium installed (Debian: apt-get install chromium)")
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
         "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 VIEWPORT = {"width": 1120, "height": 700}
@@ -93,6 +93,7 @@ def page(viewer):
             ctx.close()
 
 
+@needs_browser
 def test_robot_and_structure_are_drawn(viewer, page):
     viewer.seek(viewer.run.duration)  # the last sample: the serpentine's front links are in the sphere
     deadline = time.monotonic() + 90
@@ -126,6 +127,7 @@ def test_robot_and_structure_are_drawn(viewer, page):
         handle.visible = True
 
 
+@needs_browser
 def test_play_button_and_slider_drive_the_replay(viewer, page):
     viewer.seek(0.0)
     viewer.speed = 0.2  # the 2 s run replays in 10 s: time to press Pause before it ends
