@@ -50,6 +50,49 @@ def _load(args: argparse.Namespace, path: str):
                       max_bytes=int(args.max_world_mb * BYTES_PER_MB))
 
 
+def _animation_config(args: argparse.Namespace):
+    """An :class:`~navstack.animate.AnimationConfig` from the ``animate`` options (defaults elsewhere)."""
+    from navstack.animate import AnimationConfig
+
+    kw = {}
+    for key in ("fps", "speed", "view"):
+        if getattr(args, key, None) is not None:
+            kw[key] = getattr(args, key)
+    if getattr(args, "size", None):
+        w, sep, h = args.size.lower().partition("x")
+        if not (sep and w.isdigit() and h.isdigit()):
+            raise BadInput(f"--size must be WIDTHxHEIGHT in pixels (e.g. 768x432), got {args.size!r}")
+        kw["width"], kw["height"] = int(w), int(h)
+    if getattr(args, "eye", None) is not None or getattr(args, "target", None) is not None:
+        kw["eye"] = tuple(args.eye) if args.eye is not None else None
+        kw["target"] = tuple(args.target) if args.target is not None else None
+    return AnimationConfig(**kw)
+
+
+def _animate_and_report(run_dir, out=None, config=None, world=None, indent: str = "") -> None:
+    from navstack.animate import animate_stats
+
+    s = animate_stats(run_dir, out, config, world)
+    c = s.config
+    print(f"{indent}wrote {s.path}: {s.frames} frames {c.width}x{c.height} at {c.fps:g} fps "
+          f"(x{c.speed:g} real time), animated in {s.seconds:.1f} s")
+
+
+def _animate(args: argparse.Namespace) -> int:
+    _animate_and_report(args.run_dir, args.out, _animation_config(args), args.world)
+    return EXIT_OK
+
+
+def _view(args: argparse.Namespace) -> int:
+    from navstack.viewer import serve
+
+    try:
+        return serve(args.run_dir, host=args.host, port=args.port, world=args.world)
+    except ImportError as exc:  # the optional extra is missing: say how to get it
+        print(f"navstack view: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+
+
 def _run(args: argparse.Namespace) -> int:
     from navstack.trial import run_trial
 
@@ -58,11 +101,14 @@ def _run(args: argparse.Namespace) -> int:
                        out_dir=args.out, render=args.render)
     out = Path(args.out)
     print(_summary(result))
-    print(f"wrote {out / 'result.json'}, trajectory.npz{' and scene.png' if args.render and not result.error else ''}")
+    print(f"wrote {out / 'result.json'}, trajectory.npz, world.json"
+          + (", scene.png" if args.render and result.reason != "error" else ""))
     if result.reason == "error":
         print(f"navstack run: internal error during the simulation (recorded in result.json as reason "
               f"\"error\"): {result.error}", file=sys.stderr)
         return EXIT_INTERNAL
+    if args.animate:
+        _animate_and_report(args.out)
     return EXIT_OK
 
 
@@ -78,10 +124,12 @@ def _demo(args: argparse.Namespace) -> int:
         out = Path(args.out) / controller
         result = run_trial(world, controller=controller, planner=args.planner, seed=args.seed, out_dir=out, render=True)
         print(f"[{controller}] " + _summary(result))
-        print(f"  wrote {out}/result.json, trajectory.npz, scene.png")
+        print(f"  wrote {out}/result.json, trajectory.npz, world.json, scene.png")
         if result.reason == "error":
             print(f"navstack demo: internal error during the simulation: {result.error}", file=sys.stderr)
             status = EXIT_INTERNAL
+        elif not args.no_animate:
+            _animate_and_report(out, indent="  ")
     return status
 
 
@@ -187,6 +235,21 @@ def _add_world_options(parser: argparse.ArgumentParser) -> None:
                                            f"{MAX_WORLD_BYTES / BYTES_PER_MB:g} MB)")
 
 
+def _urdf(args: argparse.Namespace) -> int:
+    from navstack import jpl
+    from navstack.urdf import UrdfOptions
+
+    opts = UrdfOptions(serpentine_radius=args.serpentine_radius, arm_radius=args.arm_radius)
+    text = jpl.jpl_serpentine().to_urdf(opts)
+    if args.out is None:
+        sys.stdout.write(text)
+        return EXIT_OK
+    Path(args.out).write_text(text, encoding="utf-8")
+    print(f"wrote {args.out} (20 joints, links dh0..dh21; PyBullet: loadURDF(..., useFixedBase=True, "
+          "flags=URDF_USE_INERTIA_FROM_FILE | URDF_USE_IMPLICIT_CYLINDER))")
+    return EXIT_OK
+
+
 def build_parser() -> argparse.ArgumentParser:
     from navstack.registry import controller_names, planner_names
 
@@ -207,6 +270,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="repeatable (default: slither, then the tip-only baseline)",
     )
     d.add_argument("--seed", type=_non_negative_int, default=0)
+    d.add_argument("--no-animate", action="store_true", help="skip the animation of each trial (animation.mp4)")
     d.set_defaults(func=_demo)
 
     r = sub.add_parser("run", help="run one closed-loop trial headless")
@@ -217,7 +281,29 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--seed", type=_non_negative_int, default=0, help="seed of the sensor noise (default 0)")
     r.add_argument("--render", action="store_true", help="also write scene.png (TinyRenderer)")
     _add_world_options(r)
+    r.add_argument("--animate", action="store_true", help="also write animation.mp4 (see: navstack animate)")
     r.set_defaults(func=_run)
+
+    a = sub.add_parser("animate", help="animate a run folder (trajectory.npz + world.json) to MP4 or GIF")
+    a.add_argument("run_dir", help="a folder written by navstack run --out (or demo, or a sweep's kept trial)")
+    a.add_argument("--out", help="file to write, .mp4 or .gif (default: RUN_DIR/animation.mp4)")
+    a.add_argument("--fps", type=float, help="frames per second (default 15)")
+    a.add_argument("--speed", type=float, help="simulated seconds per second of video (default 1: real time)")
+    a.add_argument("--size", help="WIDTHxHEIGHT in pixels, multiples of 16 (default 768x432)")
+    a.add_argument("--view", choices=("auto", "front", "side", "top"),
+                   help="camera direction (default auto: chosen from the trajectory)")
+    a.add_argument("--eye", type=float, nargs=3, metavar=("X", "Y", "Z"), help="camera position (world, m)")
+    a.add_argument("--target", type=float, nargs=3, metavar=("X", "Y", "Z"), help="point looked at (world, m)")
+    a.add_argument("--world", help="the world file, for run folders without world.json")
+    a.set_defaults(func=_animate)
+
+    v = sub.add_parser("view", help="3D viewer of a run folder in the browser (needs: pip install 'navstack[viewer]')")
+    v.add_argument("run_dir", help="a folder written by navstack run --out")
+    v.add_argument("--port", type=int, default=8080, help="local port (default 8080; the next free one if taken)")
+    v.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
+    v.add_argument("--world", help="the world file, for run folders without world.json")
+    v.set_defaults(func=_view)
+
 
     c = sub.add_parser("check-world", help="validate world files without running them (also: goals in reach, "
                                            "robot clear of every obstacle at the start)")
@@ -248,6 +334,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     m = sub.add_parser("model", help="print the robot model (Figure 2 in metres) and the default posture")
     m.set_defaults(func=_model)
+
+    u = sub.add_parser("urdf", help="write the robot as URDF (joint limits, capsule collision geometry, masses)")
+    u.add_argument("--out", help="URDF file to write (default: standard output)")
+    u.add_argument("--serpentine-radius", type=float, default=0.025, help="serpentine capsule radius [m]")
+    u.add_argument("--arm-radius", type=float, default=0.06, help="arm capsule radius [m]")
+    u.set_defaults(func=_urdf)
     return p
 
 

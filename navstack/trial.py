@@ -187,8 +187,8 @@ def run_trial(
     """Run one closed-loop trial headless and return its result.
 
     ``world`` is a :class:`navstack.world.World`, a path to a world file, or a parsed world dict.
-    With ``out_dir`` the trial writes ``result.json`` and ``trajectory.npz``
-    there (and ``scene.png`` with ``render=True``).  Bad input raises before
+    With ``out_dir`` the trial writes ``result.json``, ``trajectory.npz`` and the world it ran,
+    ``world.json`` (:mod:`navstack.rundir`), there (and ``scene.png`` with ``render=True``).  Bad input raises before
     anything is simulated: ``WorldError`` for the world (unreadable, invalid,
     a goal out of reach, a robot starting in contact with an obstacle) and
     ``TrialInputError`` for the rest (an unknown controller or planner, a bad
@@ -211,6 +211,10 @@ def run_trial(
     check_reach(world)
     check_start(world)
     out = check_out_dir(out_dir) if out_dir is not None else None
+    if out is not None:
+        from navstack.rundir import write_run_world
+
+        write_run_world(world, out)  # world.json (meshes copied to out/meshes/): animate and view read it
 
     sim = _Simulation(world, controller, planner, int(seed), cfg)
     wall0 = time.perf_counter()
@@ -327,7 +331,7 @@ def _save(out: Path | None, sim: _Simulation, reason: str, error: str | None, wa
         if render and reason != "error":
             from navstack.render import render_scene
 
-            render_scene(sim, out / "scene.png")
+            render_scene(sim, out / "scene.png", result)
         _write_json(out / "result.json", result.to_dict())
     sim.close()
     return result
