@@ -73,7 +73,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from navstack.jpl import ARM_JOINTS, LINK_LENGTH, N_JOINTS
 from navstack.kinematics import Chain, frames_into, point_jacobians_into
-from navstack.path import PathMemory, chain_into, record_into
+from navstack.path import PathMemory
 
 SlitherMode = Literal["projected", "full", "none"]
 MODES: dict[str, int] = {"none": 0, "projected": 1, "full": 2}
@@ -419,7 +419,7 @@ def _solve_rows(R, info, n_rows, n_dense, wv, lam2, H, g, out):  # pragma: no co
 
 @numba.njit(cache=True)
 def _step_kernel(alpha, a, d, theta, prismatic, point_frames, q, qdot, x_d, xdot_d,
-                 V, S, nst, ptr, yd, ydot, seg, par, pstats,
+                 nst, yd, ydot,
                  prm, cfg, F, Jp, R, rinfo, H, g, G, Jh, qnew, out):  # pragma: no cover - jitted
     """One controller step; ``out`` gets [lam2, sigma, rows, dense rows, status]. Returns status."""
     for c in range(3):
@@ -429,10 +429,6 @@ def _step_kernel(alpha, a, d, theta, prismatic, point_frames, q, qdot, x_d, xdot
         if not math.isfinite(xdot_d[c]):
             out[O_STATUS] = STATUS_BAD_XDOT
             return STATUS_BAD_XDOT
-    # slithering path memory: record the desired tip, chord points behind it
-    n_v = record_into(V, S, nst[0], x_d, prm[P_SPACING])
-    nst[0] = n_v
-    chain_into(V, n_v, x_d, xdot_d, prm[P_LINK], ptr, yd, ydot, seg, par, pstats)
     # kinematic loop: tasks at z = f(theta_d)
     n_rows, n_dense = _build_rows(alpha, a, d, theta, prismatic, point_frames, q, x_d, xdot_d, yd, ydot,
                                   prm, cfg, F, Jp, R, rinfo)
@@ -567,7 +563,7 @@ class SlitherController:
         self._Jh = np.empty((15, n))
         self._qnew = np.zeros(n)
         self._out = np.zeros(5)
-        self._nst = np.array([self.path._n, 0], dtype=np.int64)
+        self._nst = np.array([0, 0], dtype=np.int64)
         self._x_d = backbone[0].copy()
         self._xdot_d = np.zeros(3)
         self._steps = 0
@@ -641,19 +637,17 @@ class SlitherController:
         if xd.shape != (3,):
             raise ValueError(f"xdot_d must be a 3-vector [m/s], got shape {xd.shape}")
         path = self.path
-        if path._n + 1 >= path._V.shape[0]:
-            path.ensure_capacity(2)
+        if np.isfinite(x).all() and np.isfinite(xd).all():
+            path.advance(x, xd)
         ch = self.chain
         status = _step_kernel(
             ch.alpha, ch.a, ch.d, ch.theta, ch.prismatic, ch.point_frames, self._q, self._qdot, x, xd,
-            path._V, path._S, self._nst, path.ptr, path.pts, path.vel, path.seg, path.par, path.stats,
+            self._nst, path.pts, path.vel,
             self._prm, self._cfg, self._F, self._Jp, self._R, self._rinfo, self._H, self._g, self._G,
             self._Jh, self._qnew, self._out,
         )
         if status != STATUS_OK:
             self._fail(status, x, xd)
-        path._n = int(self._nst[0])
-        path._account()
         self._x_d = x.copy()
         self._xdot_d = xd.copy()
         self._steps += 1
@@ -664,7 +658,6 @@ class SlitherController:
             raise ValueError(f"x_d must be finite [m], got {x.tolist()} at step {self._steps}")
         if status == STATUS_BAD_XDOT:
             raise ValueError(f"xdot_d must be finite [m/s], got {xd.tolist()} at step {self._steps}")
-        self.path._n = int(self._nst[0])
         bad = np.flatnonzero(~np.isfinite(self._qnew))
         what = f"joint {int(bad[0]) + 1} rate is {self._qnew[bad[0]]}" if bad.size else "normal matrix not SPD"
         raise ControlError(f"equation (4) gave no finite rate at step {self._steps} ({what}); theta_d held")
