@@ -295,11 +295,11 @@ def chain_into(V, n, x_tip, xdot_tip, L, ptr, pts, vel, seg, par, stats):  # pra
 
 
 @numba.njit(cache=True)
-def advance_into(V, S, nv, head, x, xdot, reverse, L, spacing, tol, ptr, pts, vel, seg, par,
-                 stats):  # pragma: no cover - jitted
+def advance_into(V, S, nv, head, x, xdot, reverse, L, spacing, tol, iptr, pv, par, stats):  # pragma: no cover
     """One step of the path memory: record ``x`` (or, ``reverse``, cut the path back to it), then the chain.
 
-    ``nv`` (1,) int64 holds the vertex count (updated).  With ``reverse`` the point of the path nearest
+    ``nv`` (1,) int64 holds the vertex count (updated); ``iptr`` (2, m) the pointers and segments,
+    ``pv`` (2, m, 3) the points and velocities of :func:`chain_into`.  With ``reverse`` the point of the path nearest
     ``x`` behind the head is located (:func:`locate_into`, window 4 * ``spacing``) and the path truncated
     there; if ``x`` is more than ``tol`` from the path nothing changes and ``ADVANCE_OFF_PATH`` is
     returned.  Non-finite input: ``ADVANCE_BAD_INPUT``, nothing changes.
@@ -316,7 +316,7 @@ def advance_into(V, S, nv, head, x, xdot, reverse, L, spacing, tol, ptr, pts, ve
     else:
         n = record_into(V, S, n, x, spacing, head)
     nv[0] = n
-    chain_into(V, n, x, xdot, L, ptr, pts, vel, seg, par, stats)
+    chain_into(V, n, x, xdot, L, iptr[0], pv[0], pv[1], iptr[1], par, stats)
     return ADVANCE_OK
 
 
@@ -456,10 +456,14 @@ class PathMemory:
         self.start_arc_length = float(self._S[m])
         """Arc length of the initial tip [m] (where a full retraction ends)."""
         # joint i (1-based) sits on vertex m - i: the segment starting there, parameter 0
-        self.ptr = np.array([m - i for i in range(1, m)], dtype=np.int64)
-        self.pts = bb[1:].copy()  # never a view of the caller's array
-        self.vel = np.zeros((m - 1, 3))
-        self.seg = self.ptr.copy()
+        # pointers and segments, points and velocities: pairs of rows of one array each (fewer kernel arguments)
+        self._iptr = np.array([[m - i for i in range(1, m)]] * 2, dtype=np.int64)
+        self.ptr = self._iptr[0]
+        self.seg = self._iptr[1]
+        self._pv = np.zeros((2, m - 1, 3))
+        self.pts = self._pv[0]
+        self.pts[:] = bb[1:]
+        self.vel = self._pv[1]
         self.par = np.zeros(m - 1)
         self.stats = np.zeros(6, dtype=np.int64)
 
@@ -603,9 +607,8 @@ class PathMemory:
         if self._nv[0] + 2 > self._V.shape[0]:
             self.ensure_capacity(2)
         status = advance_into(self._V, self._S, self._nv, self._head, x, xd, reverse, self.link_length,
-                              self.spacing, tolerance, self.ptr, self.pts, self.vel, self.seg, self.par,
-                              self.stats)
-        if status != ADVANCE_OK:
+                              self.spacing, tolerance, self._iptr, self._pv, self.par, self.stats)
+        if status:
             self._advance_error(status, x, xd)
 
     def _advance_error(self, status: int, x: NDArray[np.float64], xd: NDArray[np.float64]) -> None:
