@@ -84,7 +84,7 @@ MIN_ARC = 1e-9
 # head: (4,) [x, y, z, s], the last recorded tip and its arc length (on the live segment V[n-1] -> head)
 # stats: (6,) int64 [pointer moves, extrapolations, singular rates] of the last chain evaluation, then
 # the same three summed over every evaluation
-ADVANCE_OK, ADVANCE_OFF_PATH, ADVANCE_BAD_INPUT = range(3)
+ADVANCE_OK, ADVANCE_OFF_PATH, ADVANCE_BAD_INPUT, ADVANCE_FULL = range(4)
 
 
 @numba.njit(cache=True)
@@ -295,19 +295,22 @@ def chain_into(V, n, x_tip, xdot_tip, L, ptr, pts, vel, seg, par, stats):  # pra
 
 
 @numba.njit(cache=True)
-def advance_into(V, S, nv, head, x, xdot, reverse, L, spacing, tol, iptr, pv, par, stats):  # pragma: no cover
+def advance_into(V, S, nv, head, iptr, pv, par, stats, x, xdot, reverse, L, spacing, tol):  # pragma: no cover
     """One step of the path memory: record ``x`` (or, ``reverse``, cut the path back to it), then the chain.
 
     ``nv`` (1,) int64 holds the vertex count (updated); ``iptr`` (2, m) the pointers and segments,
     ``pv`` (2, m, 3) the points and velocities of :func:`chain_into`.  With ``reverse`` the point of the path nearest
     ``x`` behind the head is located (:func:`locate_into`, window 4 * ``spacing``) and the path truncated
     there; if ``x`` is more than ``tol`` from the path nothing changes and ``ADVANCE_OFF_PATH`` is
-    returned.  Non-finite input: ``ADVANCE_BAD_INPUT``, nothing changes.
+    returned.  Non-finite input: ``ADVANCE_BAD_INPUT``; fewer than two free vertex slots: ``ADVANCE_FULL``
+    (nothing changes in either case).
     """
+    n = nv[0]
+    if n + 2 > V.shape[0]:
+        return ADVANCE_FULL
     for c in range(3):
         if not (math.isfinite(x[c]) and math.isfinite(xdot[c])):
             return ADVANCE_BAD_INPUT
-    n = nv[0]
     if reverse:
         s, dist = locate_into(V, S, n, head, x, 4.0 * spacing)
         if dist > tol or s <= MIN_ARC:
@@ -466,6 +469,7 @@ class PathMemory:
         self.vel = self._pv[1]
         self.par = np.zeros(m - 1)
         self.stats = np.zeros(6, dtype=np.int64)
+        self._kernel_state = (self._V, self._S, self._nv, self._head, self._iptr, self._pv, self.par, self.stats)
 
     # ---- storage -------------------------------------------------------
     @property
@@ -537,6 +541,7 @@ class PathMemory:
         V[:n] = self._V[:n]
         S[:n] = self._S[:n]
         self._V, self._S = V, S
+        self._kernel_state = (self._V, self._S, self._nv, self._head, self._iptr, self._pv, self.par, self.stats)
 
     # ---- API -----------------------------------------------------------
     def record(self, x_tip: ArrayLike) -> bool:
@@ -604,12 +609,20 @@ class PathMemory:
         xd = np.asarray(xdot_tip, dtype=np.float64)
         if x.shape != (3,) or xd.shape != (3,):
             raise ValueError(f"x_tip and xdot_tip must be 3-vectors, got shapes {x.shape} and {xd.shape}")
-        if self._nv[0] + 2 > self._V.shape[0]:
+        status = advance_into(*self._kernel_state, x, xd, reverse, self.link_length, self.spacing, tolerance)
+        if status == ADVANCE_FULL:
             self.ensure_capacity(2)
-        status = advance_into(self._V, self._S, self._nv, self._head, x, xd, reverse, self.link_length,
-                              self.spacing, tolerance, self._iptr, self._pv, self.par, self.stats)
+            status = advance_into(*self._kernel_state, x, xd, reverse, self.link_length, self.spacing, tolerance)
         if status:
             self._advance_error(status, x, xd)
+
+    @property
+    def kernel_state(self) -> tuple[NDArray, ...]:
+        """The path's arrays in the order :func:`advance_into` takes them first (V, S, vertex count, head,
+        pointers, points and velocities, parameters, counters): for a compiled caller that advances the path
+        inside its own kernel (:mod:`navstack.control.fast`).  The storage is replaced when it grows: read
+        this afresh for every call, and on ``ADVANCE_FULL`` call :meth:`ensure_capacity` and retry."""
+        return self._kernel_state
 
     def _advance_error(self, status: int, x: NDArray[np.float64], xd: NDArray[np.float64]) -> None:
         if status == ADVANCE_BAD_INPUT:

@@ -10,6 +10,7 @@ import pytest
 
 from navstack import jpl_serpentine
 from navstack.control import ControlConfig, ControlError, SlitherController, dls_rate
+from navstack.control.tasks import Task
 from navstack.jpl import ARM_JOINTS, Q_DEFAULT, SERPENTINE_JOINTS
 from navstack.retreat import Retreat
 
@@ -338,3 +339,69 @@ def test_a_non_finite_rate_raises_and_holds_theta_d():
         ctl.step(TIP0 + 1e308 * EZ, np.zeros(3))  # finite, but K e overflows
     np.testing.assert_array_equal(ctl.theta_d, q)
     assert np.isfinite(ctl.theta_d).all()
+
+
+# ---------------------------------------------------------------- (6) the one-call fast path, reverse commands
+class Idle(Task):
+    """A task with one row of weight 0: changes nothing in equation (4), but routes the controller through
+    TaskSolver (task by task) instead of its one-call fast path."""
+
+    name = "idle"
+
+    @property
+    def size(self) -> int:
+        return 1
+
+    def row_names(self) -> tuple[str, ...]:
+        return ("idle.q1",)
+
+    def fill(self, kin, R, info, r0):
+        R[r0] = 0.0
+        info[:, r0] = (kin.q[0], kin.q[0], 0.0, 0.0, 0.0, -1.0)  # z, z_d, zdot_d, w = 0, k, dense
+
+
+@pytest.mark.parametrize("mode", ["projected", "full", "none"])
+def test_the_fast_path_is_the_task_by_task_solver(mode):
+    """Same theta_d, rates and damping, to the last bit, in and out along the bend (reverse commands too)."""
+    v, dt = 0.05, 1 / 60
+    cfg = ControlConfig(dt=dt, slither=mode, sigma_every=3)
+    fast = SlitherController(CHAIN, cfg, Q_DEFAULT)
+    slow = SlitherController(CHAIN, cfg, Q_DEFAULT, extra_tasks=[Idle(weight=0.0, gain=0.0)])
+    assert fast._fast is not None and slow._fast is None
+    for k in range(200):
+        x_d, tangent = _turn(k * v * dt)
+        np.testing.assert_array_equal(fast.step(x_d, v * tangent), slow.step(x_d, v * tangent))
+    retreat = Retreat(fast.path, fast.path.end_arc_length - 0.1, speed=v, accel=0.1)
+    while not retreat.done:
+        cmd = retreat.step(dt)
+        np.testing.assert_array_equal(fast.step(cmd.position, cmd.velocity, reverse=True),
+                                      slow.step(cmd.position, cmd.velocity, reverse=True))
+    np.testing.assert_array_equal(fast.thetadot_d, slow.thetadot_d)
+    np.testing.assert_array_equal(fast.rate_eq4, slow.rate_eq4)
+    assert fast.lam2 == slow.lam2 and fast.sigma_min == slow.sigma_min
+    np.testing.assert_array_equal(fast.path.points, slow.path.points)
+    np.testing.assert_array_equal(fast.desired_points, slow.desired_points)
+
+
+@pytest.mark.parametrize("fast", [True, False])
+def test_a_reverse_command_off_the_path_raises_and_changes_nothing(fast):
+    extra = [] if fast else [Idle(weight=0.0, gain=0.0)]
+    ctl = SlitherController(CHAIN, ControlConfig(), Q_DEFAULT, extra_tasks=extra)
+    for k in range(1, 100):
+        ctl.step(TIP0 + 0.0005 * k * EZ, 0.05 * EZ)
+    q, n_points, end, steps = ctl.theta_d, ctl.path.n_points, ctl.path.end_arc_length, ctl.steps
+    with pytest.raises(ValueError, match="retrace the path"):
+        ctl.step(TIP0 + 0.03 * EZ + 0.01 * EX, -0.05 * EZ, reverse=True)
+    with pytest.raises(ValueError, match="x_d must be finite"):
+        ctl.step([np.nan, 0.0, 1.0], np.zeros(3), reverse=True)
+    np.testing.assert_array_equal(ctl.theta_d, q)
+    assert (ctl.path.n_points, ctl.path.end_arc_length, ctl.steps) == (n_points, end, steps)
+    ctl.step(TIP0 + 0.04 * EZ, -0.05 * EZ, reverse=True)  # on the path: accepted, the path cut back
+    assert ctl.path.end_arc_length == pytest.approx(end - 0.0095, abs=1e-12)
+
+
+def test_the_controller_refuses_a_chain_that_is_not_a_chain():
+    with pytest.raises(TypeError, match="chain must be a navstack Chain"):
+        SlitherController(object())  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="extra_tasks"):
+        SlitherController(CHAIN, extra_tasks=[object()])  # type: ignore[list-item]

@@ -21,15 +21,17 @@ tip motion and its own state, never obstacle geometry.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
-import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from navstack.control.config import ControlConfig
 from navstack.control.damping import AdaptiveDamping
+from navstack.control.equation4 import STEP_NONFINITE, STEP_OK
+from navstack.control.fast import StandardStep
 from navstack.control.solver import TaskSolver
-from navstack.control.tasks import JointLimitTask, PostureTask, SlitherTask, TaskRows, TipTask
+from navstack.control.tasks import JointLimitTask, PostureTask, SlitherTask, Task, TaskRows, TipTask
 from navstack.jpl import ARM_JOINTS, LINK_LENGTH, N_JOINTS
 from navstack.kinematics import Chain
 from navstack.path import PathMemory
@@ -39,33 +41,20 @@ class ControlError(RuntimeError):
     """The controller could not produce a finite joint rate (state left unchanged)."""
 
 
-@numba.njit(cache=True)
-def integrate_into(q, rate, qdot, bounds, dt):  # pragma: no cover - jitted
-    """``q += dt * rate`` clipped into ``bounds`` (2, n); ``qdot`` the effective rate.  False if non-finite."""
-    n = q.shape[0]
-    for j in range(n):
-        if not math.isfinite(rate[j]):
-            return False
-    for j in range(n):
-        v = q[j] + dt * rate[j]
-        if v < bounds[0, j]:
-            v = bounds[0, j]
-        elif v > bounds[1, j]:
-            v = bounds[1, j]
-        qdot[j] = (v - q[j]) / dt
-        q[j] = v
-    return True
-
-
 class SlitherController:
     """Equation (4) slithering controller for the 20-DOF JPL robot (see the module docstring).
 
     ``SlitherController(chain, config, q0)`` starts with ``theta_d = q0`` and a
-    :class:`PathMemory` holding ``q0``'s backbone.
+    :class:`PathMemory` holding ``q0``'s backbone.  ``extra_tasks`` are stacked after the built-in ones
+    (e.g. obstacle limits; each a :class:`~navstack.control.tasks.Task`, with its targets kept by the
+    caller); conditioning rows of extra tasks are not supported.
     """
 
-    def __init__(self, chain: Chain, config: ControlConfig | None = None, q0: ArrayLike | None = None) -> None:
+    def __init__(self, chain: Chain, config: ControlConfig | None = None, q0: ArrayLike | None = None,
+                 extra_tasks: Sequence[Task] = ()) -> None:
         cfg = ControlConfig() if config is None else config
+        if not isinstance(chain, Chain):
+            raise TypeError(f"chain must be a navstack Chain (navstack.jpl_serpentine()), got {type(chain).__name__}")
         if not isinstance(cfg, ControlConfig):
             raise TypeError(f"config must be a ControlConfig, got {type(cfg).__name__}")
         if chain.n != N_JOINTS or len(chain.point_frames) != 7:
@@ -108,10 +97,16 @@ class SlitherController:
                              f"(range {chain.upper[j] - chain.lower[j]})")
         self.limits = JointLimitTask(chain.lower, chain.upper, margin, cfg.w_limit, cfg.k_limit)
         tasks = [self.tip] + ([self.slither] if self.slither else []) + [self.posture_task, self.limits]
+        extra = tuple(extra_tasks)
+        if not all(isinstance(t, Task) for t in extra):
+            raise TypeError(f"extra_tasks must be Task objects, got {[type(t).__name__ for t in extra]}")
+        tasks += list(extra)
         wv = np.asarray(cfg.wv, dtype=np.float64)
         damping = AdaptiveDamping(cfg.lambda0, cfg.lambda_max, cfg.sigma_eps, cfg.sigma_every, wv,
                                   rows=sum(t.conditioning_size for t in tasks))
         self.solver = TaskSolver(chain, tasks, wv, damping)
+        # the built-in tasks alone: the same kernels in one compiled call (navstack/control/fast.py)
+        self._fast = None if extra else StandardStep(self.solver, self.path, cfg.reverse_tolerance)
         tol = cfg.reverse_tolerance
         self._track = self.slither.set_target if self.slither else (
             lambda x, xd, reverse: self.path.advance(x, xd, reverse, tol))
@@ -192,26 +187,34 @@ class SlitherController:
         Raises ``ValueError`` for a non-3-vector or non-finite input, or a reverse ``x_d`` off the
         recorded path (nothing is recorded then), and :class:`ControlError` if no finite rate results.
         """
-        x = np.array(x_d, dtype=np.float64)
-        xd = np.array(xdot_d, dtype=np.float64)
-        if x.shape != (3,):
-            raise ValueError(f"x_d must be a 3-vector [m], got shape {x.shape}")
-        if xd.shape != (3,):
-            raise ValueError(f"xdot_d must be a 3-vector [m/s], got shape {xd.shape}")
+        try:  # one fresh (2, 3) array: x and xd are its rows (the tasks keep them)
+            both = np.array((x_d, xdot_d), dtype=np.float64)
+        except ValueError:
+            both = np.empty(0)
+        if both.shape != (2, 3):
+            for name, v, unit in (("x_d", x_d, "m"), ("xdot_d", xdot_d, "m/s")):
+                shape = np.shape(v)
+                if shape != (3,):
+                    raise ValueError(f"{name} must be a 3-vector [{unit}], got shape {shape}")
+        x, xd = both[0], both[1]
         try:
-            self._track(x, xd, reverse)
+            if self._fast is not None:
+                status = self._fast(x, xd, reverse, self._q, self._qdot, self._bounds, self._dt)
+            else:
+                self._track(x, xd, reverse)
+                self.tip.set_target(x, xd)
+                status = self.solver.step(self._q, self._qdot, self._bounds, self._dt)
         except ValueError as exc:
             for name, v, unit in (("x_d", x, "m"), ("xdot_d", xd, "m/s")):
                 if not np.isfinite(v).all():
                     raise ValueError(f"{name} must be finite [{unit}], got {v.tolist()} at step {self._steps}") \
                         from None
             raise ValueError(f"{exc} (at step {self._steps})") from None
-        self.tip.set_target(x, xd)
-        ok = self.solver.solve(self._q)
-        if not (ok and integrate_into(self._q, self.solver.rate, self._qdot, self._bounds, self._dt)):
+        if status != STEP_OK:
             rate = self.solver.rate
             bad = np.flatnonzero(~np.isfinite(rate))
-            what = f"joint {int(bad[0]) + 1} rate is {rate[bad[0]]}" if (ok and bad.size) else "normal matrix not SPD"
+            what = f"joint {int(bad[0]) + 1} rate is {rate[bad[0]]}" if status == STEP_NONFINITE and bad.size \
+                else "normal matrix not SPD"
             raise ControlError(f"equation (4) gave no finite rate at step {self._steps} ({what}); theta_d held")
         self._steps += 1
         return self._q.copy()

@@ -20,7 +20,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 
-def damping_lambda2(sigma: float, lambda0: float, lambda_max: float, eps: float) -> float:
+@numba.njit(cache=True)
+def damping_lambda2(sigma: float, lambda0: float, lambda_max: float, eps: float) -> float:  # pragma: no cover
     """The damping rule: lambda^2 for a smallest singular value ``sigma`` (see the module docstring)."""
     lam2 = lambda0 * lambda0
     if sigma < eps:
@@ -59,9 +60,18 @@ class AdaptiveDamping:
         self._inv_sqrt_wv = 1.0 / np.sqrt(np.asarray(wv, dtype=np.float64))
         self.C = np.zeros((rows, len(self._inv_sqrt_wv)))
         self._G = np.zeros((rows, rows))
-        self.sigma = 0.0
-        self.lam2 = self.lambda0**2
-        self.refreshes = 0
+        self.state = np.array([0.0, self.lambda0**2])
+        """[sigma, lambda^2] of the last refresh (an array, so compiled callers update it in place)."""
+
+    @property
+    def sigma(self) -> float:
+        """Smallest singular value of the last refresh."""
+        return float(self.state[0])
+
+    @property
+    def lam2(self) -> float:
+        """lambda^2 in force."""
+        return float(self.state[1])
 
     def due(self, step: int) -> bool:
         """Whether step ``step`` (0-based) refreshes sigma."""
@@ -69,6 +79,6 @@ class AdaptiveDamping:
 
     def refresh(self) -> None:
         """Recompute sigma and lambda^2 from the conditioning rows in :attr:`C` (filled by the tasks)."""
-        self.sigma = float(sigma_min(self.C, self.C.shape[0], self._inv_sqrt_wv, self._G))
-        self.lam2 = damping_lambda2(self.sigma, self.lambda0, self.lambda_max, self.eps)
-        self.refreshes += 1
+        sigma = sigma_min(self.C, self.C.shape[0], self._inv_sqrt_wv, self._G)
+        self.state[0] = sigma
+        self.state[1] = damping_lambda2(sigma, self.lambda0, self.lambda_max, self.eps)

@@ -6,7 +6,8 @@ with ``W``, ``W_v`` and ``K`` diagonal.  :func:`dls_rate` is that formula in num
 reference the tests hold the controller to).  :func:`solve_rows_into` is the same equation on the task
 rows stacked by :class:`~navstack.control.solver.TaskSolver`, compiled: it forms the normal matrix
 ``J^T W J + lambda^2 W_v`` (a unit row ``e_j^T`` adds its weight to the diagonal only) and solves it by
-Cholesky (symmetric positive definite whenever ``lambda^2 W_v > 0``).
+Cholesky (symmetric positive definite whenever ``lambda^2 W_v > 0``).  :func:`step_into` then integrates
+the rate into ``theta_d``: ``theta_d(t + dt) = theta_d(t) + dt * thetadot_d``, clipped into the joint limits.
 """
 
 from __future__ import annotations
@@ -96,3 +97,28 @@ def solve_rows_into(R, info, n_rows, wv, lam2, H, g, out):  # pragma: no cover -
             s -= H[k, i] * out[k]
         out[i] = s / H[i, i]
     return True
+
+
+STEP_OK, STEP_NOT_SPD, STEP_NONFINITE = range(3)
+
+
+@numba.njit(cache=True)
+def step_into(R, info, n_rows, wv, lam2, H, g, rate, q, qdot, bounds, dt):  # pragma: no cover - jitted
+    """Equation (4) into ``rate`` (:func:`solve_rows_into`), then ``q += dt * rate`` clipped into ``bounds``
+    (2, n: lower, upper); ``qdot`` the effective rate.  Returns ``STEP_OK``, or ``STEP_NOT_SPD`` /
+    ``STEP_NONFINITE`` with ``q`` and ``qdot`` unchanged."""
+    if not solve_rows_into(R, info, n_rows, wv, lam2, H, g, rate):
+        return STEP_NOT_SPD
+    n = q.shape[0]
+    for j in range(n):
+        if not math.isfinite(rate[j]):
+            return STEP_NONFINITE
+    for j in range(n):
+        v = q[j] + dt * rate[j]
+        if v < bounds[0, j]:
+            v = bounds[0, j]
+        elif v > bounds[1, j]:
+            v = bounds[1, j]
+        qdot[j] = (v - q[j]) / dt
+        q[j] = v
+    return STEP_OK

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from navstack.control.damping import AdaptiveDamping
-from navstack.control.equation4 import solve_rows_into
+from navstack.control.equation4 import solve_rows_into, step_into
 from navstack.control.tasks.base import I_COL, N_INFO, Kinematics, Task, TaskRows
 from navstack.kinematics import Chain
 
@@ -51,8 +51,8 @@ class TaskSolver:
         """Equation (4)'s rate of the last :meth:`solve` [m/s, rad/s]."""
         self.steps = 0
 
-    def solve(self, q: NDArray[np.float64]) -> bool:
-        """Rate of equation (4) at ``q`` into :attr:`rate`; False if the normal matrix was not SPD."""
+    def build(self, q: NDArray[np.float64]) -> None:
+        """The stacked rows at ``q``: kinematics, every task's rows, the damping (on a refresh step)."""
         kin = self.kin
         kin.update(q)
         R, info = self.R, self.info
@@ -64,7 +64,20 @@ class TaskSolver:
                 conditioning(kin, damping.C, r0)
             damping.refresh()
         self.steps += 1
-        return solve_rows_into(R, info, self.n_rows, self.wv, damping.lam2, self._H, self._g, self.rate)
+
+    def solve(self, q: NDArray[np.float64]) -> bool:
+        """Rate of equation (4) at ``q`` into :attr:`rate`; False if the normal matrix was not SPD."""
+        self.build(q)
+        return solve_rows_into(self.R, self.info, self.n_rows, self.wv, self.damping.lam2, self._H, self._g,
+                               self.rate)
+
+    def step(self, q: NDArray[np.float64], qdot: NDArray[np.float64], bounds: NDArray[np.float64],
+             dt: float) -> int:
+        """:meth:`solve` at ``q``, then ``q += dt * rate`` in place, clipped into ``bounds`` (2, n), ``qdot`` the
+        effective rate (:func:`~navstack.control.equation4.step_into`); returns its status (0: done)."""
+        self.build(q)
+        return step_into(self.R, self.info, self.n_rows, self.wv, self.damping.lam2, self._H, self._g, self.rate,
+                         q, qdot, bounds, dt)
 
     def stack(self, q: NDArray[np.float64]) -> TaskRows:
         """Every task's rows at ``q``, stacked (fresh arrays; changes no state)."""
