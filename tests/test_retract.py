@@ -78,7 +78,9 @@ def test_paper_truss_in_up_out_and_back_out_of_the_entry(tmp_path):
           f"deviation in {dev_in * 1e3:.3f} mm, out {dev_out * 1e3:.3f} mm")
     assert r.success and r.reason == "reached" and r.retracted is True and r.goals_reached == 4
     assert m["contacts"] == 0 and m["min_clearance"] > 0.0
-    assert m["slither_deviation_max"] < 1e-3 and dev_in < 1e-3 and dev_out < 1e-3
+    # the issue asks below 1 mm both ways; measured 0.027 mm both ways (servo with gravity feed-forward):
+    # bound at 0.1 mm, so losing the feed-forward (0.83 mm) fails here too
+    assert m["slither_deviation_max"] < 1e-4 and dev_in < 1e-4 and dev_out < 1e-4
     data = json.loads((tmp_path / "result.json").read_text())
     assert data["retracted"] is True
     q_end = np.load(tmp_path / "trajectory.npz")["q"][-1]
