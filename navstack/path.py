@@ -188,6 +188,35 @@ def _dist2(V, k, px, py, pz):  # pragma: no cover - jitted
     return dx * dx + dy * dy + dz * dz
 
 
+@numba.njit(cache=True, inline="always")
+def _move_pointer(V, k, k_prev, px, py, pz, L2):  # pragma: no cover - jitted
+    """Pointer ``k`` moved to the segment holding the crossing behind P (see the module docstring).
+
+    Forward while the next vertex is still outside the sphere, back while ``V[k]`` is inside it.
+    Returns (k, moves).
+    """
+    moves = 0
+    if _dist2(V, k, px, py, pz) >= L2:
+        while k + 1 <= k_prev and _dist2(V, k + 1, px, py, pz) >= L2:
+            k += 1
+            moves += 1
+    else:
+        while k > 0 and _dist2(V, k, px, py, pz) < L2:
+            k -= 1
+            moves += 1
+    return k, moves
+
+
+@numba.njit(cache=True, inline="always")
+def _sphere_roots(ax, ay, az, dx, dy, dz, px, py, pz, L2):  # pragma: no cover - jitted
+    """Coefficients of ``|a + t d - p|^2 - L^2 = A t^2 + 2 B t + C`` and ``sqrt(B^2 - A C)`` (>= 0)."""
+    wx, wy, wz = ax - px, ay - py, az - pz
+    A = dx * dx + dy * dy + dz * dz
+    B = wx * dx + wy * dy + wz * dz
+    C = wx * wx + wy * wy + wz * wz - L2
+    return A, B, C, math.sqrt(max(B * B - A * C, 0.0))
+
+
 @numba.njit(cache=True)
 def chain_into(V, n, x_tip, xdot_tip, L, ptr, pts, vel, seg, par, stats):  # pragma: no cover - jitted
     """Chord points ``pts`` (m, 3) behind ``x_tip`` on the path ``V[:n]`` + live segment, and velocities.
@@ -197,49 +226,27 @@ def chain_into(V, n, x_tip, xdot_tip, L, ptr, pts, vel, seg, par, stats):  # pra
     (``pts[i] = V[seg] + par * (next - V[seg])``; ``par < 0`` on the extrapolation
     behind ``V[0]``).  ``stats`` (6,) int64 gets [pointer moves, extrapolations past
     V[0], singular rates] of this call in [0:3], added to the totals in [3:6].
-    Requires ``n >= 2``.
+    Requires ``n >= 2``.  (One loop over the joints, kept whole: it is the hot path.)
     """
-    m = ptr.shape[0]
     L2 = L * L
     px, py, pz = x_tip[0], x_tip[1], x_tip[2]
     vx, vy, vz = xdot_tip[0], xdot_tip[1], xdot_tip[2]
-    # the line extrapolated behind V[0]: the first segment's, forward direction e
-    ex, ey, ez = V[1, 0] - V[0, 0], V[1, 1] - V[0, 1], V[1, 2] - V[0, 2]
     k_prev = n - 1  # the tip lies on the live segment V[n-1] -> x_tip
     beyond = False  # P_{i-1} lies on the extrapolation behind V[0]
-    iters = 0
-    overruns = 0
-    singular = 0
-    for i in range(m):
-        k = ptr[i]
-        if k > k_prev:
-            k = k_prev
-        if k < 0:
-            k = 0
+    iters = overruns = singular = 0
+    for i in range(ptr.shape[0]):
+        k = min(max(ptr[i], 0), k_prev)
         if not beyond:
-            if _dist2(V, k, px, py, pz) >= L2:
-                while k + 1 <= k_prev and _dist2(V, k + 1, px, py, pz) >= L2:
-                    k += 1
-                    iters += 1
-            else:
-                while k > 0 and _dist2(V, k, px, py, pz) < L2:
-                    k -= 1
-                    iters += 1
+            k, moves = _move_pointer(V, k, k_prev, px, py, pz, L2)
+            iters += moves
         if beyond or (k == 0 and _dist2(V, 0, px, py, pz) < L2):
-            # behind V[0]: the crossing on the line V[0] + t e, t < 0.  Both roots of
-            # |V[0] + t e - P|^2 = L^2 straddle P's own parameter (or 0, with V[0] inside the
-            # sphere), so the smaller root is the one behind P_{i-1}
+            # behind V[0]: on the line V[0] + t e (e = V[1] - V[0], forward).  The two roots straddle
+            # P's own parameter (or 0, with V[0] inside the sphere): the smaller is behind P_{i-1}
             k = 0
             ax, ay, az = V[0, 0], V[0, 1], V[0, 2]
-            dx, dy, dz = ex, ey, ez
-            wx, wy, wz = ax - px, ay - py, az - pz
-            A = dx * dx + dy * dy + dz * dz
-            B = wx * dx + wy * dy + wz * dz
-            C = wx * wx + wy * wy + wz * wz - L2
-            disc = B * B - A * C
-            if disc < 0.0:
-                disc = 0.0
-            t = (-B - math.sqrt(disc)) / A
+            dx, dy, dz = V[1, 0] - ax, V[1, 1] - ay, V[1, 2] - az
+            A, B, C, root = _sphere_roots(ax, ay, az, dx, dy, dz, px, py, pz, L2)
+            t = (-B - root) / A
             tx, ty, tz = dx, dy, dz
             overruns += 1
             beyond = True
@@ -250,20 +257,11 @@ def chain_into(V, n, x_tip, xdot_tip, L, ptr, pts, vel, seg, par, stats):  # pra
             else:  # the segment holding P_{i-1}: only its part behind P_{i-1}
                 bx, by, bz = px, py, pz
             dx, dy, dz = bx - ax, by - ay, bz - az
-            wx, wy, wz = ax - px, ay - py, az - pz
-            A = dx * dx + dy * dy + dz * dz
-            B = wx * dx + wy * dy + wz * dz
-            C = wx * wx + wy * wy + wz * wz - L2
-            disc = B * B - A * C
-            if disc < 0.0:
-                disc = 0.0
+            A, B, C, root = _sphere_roots(ax, ay, az, dx, dy, dz, px, py, pz, L2)
             # f(0) = C >= 0 > f(1): the one root in [0, 1) is the smaller one (stable form)
-            den = math.sqrt(disc) - B
-            t = C / den if den > 0.0 else 0.0
-            # unit tangent of the segment (direction of travel)
-            if k + 1 <= k_prev:
-                tx, ty, tz = dx, dy, dz
-            elif k + 1 <= n - 1:
+            t = C / (root - B) if root - B > 0.0 else 0.0
+            # unit tangent of the segment (direction of travel): the whole segment's if P_{i-1} is on it
+            if k == k_prev and k + 1 <= n - 1:
                 tx, ty, tz = V[k + 1, 0] - ax, V[k + 1, 1] - ay, V[k + 1, 2] - az
             else:
                 tx, ty, tz = dx, dy, dz
@@ -271,13 +269,12 @@ def chain_into(V, n, x_tip, xdot_tip, L, ptr, pts, vel, seg, par, stats):  # pra
         tn = math.sqrt(tx * tx + ty * ty + tz * tz)
         tx, ty, tz = tx / tn, ty / tn, tz / tn
         cx, cy, cz = qx - px, qy - py, qz - pz
-        num = cx * vx + cy * vy + cz * vz
         den = cx * tx + cy * ty + cz * tz
         if abs(den) < SINGULAR_COS * L:
             sdot = 0.0
             singular += 1
         else:
-            sdot = num / den
+            sdot = (cx * vx + cy * vy + cz * vz) / den
         vx, vy, vz = tx * sdot, ty * sdot, tz * sdot
         pts[i, 0], pts[i, 1], pts[i, 2] = qx, qy, qz
         vel[i, 0], vel[i, 1], vel[i, 2] = vx, vy, vz
@@ -286,9 +283,7 @@ def chain_into(V, n, x_tip, xdot_tip, L, ptr, pts, vel, seg, par, stats):  # pra
         ptr[i] = k
         k_prev = k
         px, py, pz = qx, qy, qz
-    stats[0] = iters
-    stats[1] = overruns
-    stats[2] = singular
+    stats[0], stats[1], stats[2] = iters, overruns, singular
     stats[3] += iters
     stats[4] += overruns
     stats[5] += singular

@@ -41,6 +41,26 @@ class ControlError(RuntimeError):
     """The controller could not produce a finite joint rate (state left unchanged)."""
 
 
+def _posture_and_margins(chain: Chain, cfg: ControlConfig, q0: NDArray[np.float64]
+                         ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The arm posture [rad] (``cfg.posture`` or ``q0``'s) and the per-joint limit margins, checked
+    against ``chain``'s limits (``ValueError`` naming the ``ControlConfig`` field)."""
+    posture = q0[ARM_JOINTS] if cfg.posture is None else np.asarray(cfg.posture, dtype=np.float64)
+    outside = np.flatnonzero((posture < chain.lower[ARM_JOINTS]) | (posture > chain.upper[ARM_JOINTS]))
+    if outside.size:
+        j = int(ARM_JOINTS[outside[0]])
+        raise ValueError(f"ControlConfig.posture for joint {j + 1} = {posture[outside[0]]} is outside its "
+                         f"limits [{chain.lower[j]}, {chain.upper[j]}]")
+    margin = np.where(chain.prismatic, cfg.limit_margin_prismatic, cfg.limit_margin)
+    tight = np.flatnonzero(2.0 * margin >= chain.upper - chain.lower)
+    if tight.size:
+        j = int(tight[0])
+        name = "limit_margin_prismatic" if chain.prismatic[j] else "limit_margin"
+        raise ValueError(f"ControlConfig.{name}={margin[j]} leaves no free range for joint {j + 1} "
+                         f"(range {chain.upper[j] - chain.lower[j]})")
+    return posture, margin
+
+
 class SlitherController:
     """Equation (4) slithering controller for the 20-DOF JPL robot (see the module docstring).
 
@@ -81,20 +101,8 @@ class SlitherController:
         self.tip.set_target(backbone[0].copy(), np.zeros(3))
         self.slither = None if cfg.slither == "none" else SlitherTask(
             self.path, cfg.slither, cfg.w_slither, cfg.k_slither, cfg.reverse_tolerance)
-        posture = q[ARM_JOINTS] if cfg.posture is None else np.asarray(cfg.posture, dtype=np.float64)
-        outside = np.flatnonzero((posture < chain.lower[ARM_JOINTS]) | (posture > chain.upper[ARM_JOINTS]))
-        if outside.size:
-            j = int(ARM_JOINTS[outside[0]])
-            raise ValueError(f"ControlConfig.posture for joint {j + 1} = {posture[outside[0]]} is outside its "
-                             f"limits [{chain.lower[j]}, {chain.upper[j]}]")
+        posture, margin = _posture_and_margins(chain, cfg, q)
         self.posture_task = PostureTask(ARM_JOINTS, posture, cfg.w_posture, cfg.k_posture)
-        margin = np.where(chain.prismatic, cfg.limit_margin_prismatic, cfg.limit_margin)
-        tight = np.flatnonzero(2.0 * margin >= chain.upper - chain.lower)
-        if tight.size:
-            j = int(tight[0])
-            name = "limit_margin_prismatic" if chain.prismatic[j] else "limit_margin"
-            raise ValueError(f"ControlConfig.{name}={margin[j]} leaves no free range for joint {j + 1} "
-                             f"(range {chain.upper[j] - chain.lower[j]})")
         self.limits = JointLimitTask(chain.lower, chain.upper, margin, cfg.w_limit, cfg.k_limit)
         tasks = [self.tip] + ([self.slither] if self.slither else []) + [self.posture_task, self.limits]
         extra = tuple(extra_tasks)

@@ -113,7 +113,8 @@ class StandardStep:
             self.slither.x_d = x_d
         return status
 
-    def _call(self, x_d, xdot_d, reverse, q, qdot, bounds, dt) -> int:
+    def _call(self, x_d: NDArray[np.float64], xdot_d: NDArray[np.float64], reverse: bool, q: NDArray[np.float64],
+              qdot: NDArray[np.float64], bounds: NDArray[np.float64], dt: float) -> int:
         s, tip, sl, post, lim = self.solver, self.tip, self.slither, self.posture, self.limits
         refresh = s.steps % s.damping.every == 0
         w_sl, k_sl = (sl.weight, sl.gain) if sl is not None else (0.0, 0.0)
