@@ -67,7 +67,7 @@ class SlitherController:
     ``SlitherController(chain, config, q0)`` starts with ``theta_d = q0`` and a
     :class:`PathMemory` holding ``q0``'s backbone.  ``extra_tasks`` are stacked after the built-in ones
     (e.g. obstacle limits; each a :class:`~navstack.control.tasks.Task`, with its targets kept by the
-    caller); conditioning rows of extra tasks are not supported.
+    caller; a task with conditioning rows adds them to the damping's singular value).
     """
 
     def __init__(self, chain: Chain, config: ControlConfig | None = None, q0: ArrayLike | None = None,
