@@ -40,7 +40,7 @@ import json
 import os
 import tempfile
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -53,6 +53,8 @@ from navstack.sim.servo import ServoConfig
 from navstack.world import WorldError
 
 REASONS = ("reached", "collision", "timeout", "stalled", "joint_limit", "error")
+RETRACT_TOLERANCE = 0.02
+"""A retraction is complete when the actual tip is this close [m] to where it was at t = 0 (spec 2a)."""
 
 
 @dataclass(frozen=True)
@@ -74,11 +76,16 @@ class TrialConfig:
     """A joint held at its limit this long [s] while the tip lags by > ``joint_limit_lag`` ends the trial."""
     joint_limit_lag: float = 0.05
     """Tip lag [m] that, with a pinned joint, counts as a joint-limit failure."""
+    retract_speed: float = 0.06
+    """Tip speed [m/s] of the retraction of ``retract`` worlds (back along the recorded path)."""
+    retract_accel: float = 0.1
+    """Acceleration and braking [m/s^2] of the retraction."""
 
     def __post_init__(self) -> None:
         if self.slither_mode not in ("projected", "full"):
             raise ValueError(f"TrialConfig.slither_mode must be 'projected' or 'full', got {self.slither_mode!r}")
-        for name in ("scripted_speed", "clearance_horizon", "joint_limit_time", "joint_limit_lag"):
+        for name in ("scripted_speed", "clearance_horizon", "joint_limit_time", "joint_limit_lag", "retract_speed",
+                     "retract_accel"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
                 raise ValueError(f"TrialConfig.{name} must be a positive number, got {v!r}")
@@ -100,11 +107,14 @@ class TrialResult:
     wall_time: float
     metrics: dict[str, float | int]
     error: str | None = None
+    retracted: bool | None = None
+    """``retract`` worlds only: whether the retraction completed (absent from ``result.json`` otherwise)."""
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
-        if d["error"] is None:
-            del d["error"]
+        for optional in ("error", "retracted"):
+            if d[optional] is None:
+                del d[optional]
         return d
 
 
@@ -402,6 +412,11 @@ class _Simulation:
         self.contacts = 0
         self.pinned_time = 0.0
         self.tip_des = tip0.copy()
+        self.tip_des_reverse = False
+        self.tip0 = tip0.copy()
+        self.retracting = False
+        self.retreat = None
+        self.retracted = False
         self.closed = False
 
     # ---- frames ---------------------------------------------------------
@@ -441,27 +456,11 @@ class _Simulation:
         pinned = 0
         while True:
             self._advance_goals(tip)
-            if self.goal_index >= len(self.goals):
+            if self.goal_index >= len(self.goals) and (not self.world.retract or self._retracted(tip)):
                 return "collision" if self.contacts else "reached"
             if self.steps >= limit_steps:
                 return "collision" if self.contacts else "timeout"
-            goal = self.goals[self.goal_index]
-            reading = None
-            if self.sensor is not None:
-                tip_T = self.T0 @ F[21]
-                raw = self.sensor.read(tip_T)
-                reading = self.estimator.update(raw, self.dt)
-            last = self.goal_index == len(self.goals) - 1
-            cmd = self.planner.step(
-                self.dt,
-                tip,
-                self.R0 @ F[20, :3, 0],
-                reading,
-                goal,
-                float(self.tolerances[self.goal_index]),
-                approach=last,
-                next_goal=None if last else self.goals[self.goal_index + 1],
-            )
+            cmd = self._plan(tip, F) if self.goal_index < len(self.goals) else self._retract()
             if cmd.stalled:
                 return "collision" if self.contacts else "stalled"
             x_d = np.asarray(cmd.position, dtype=np.float64)
@@ -470,9 +469,12 @@ class _Simulation:
                 raise FloatingPointError(f"planner produced a non-finite tip command at step {self.steps}")
             # equation (4) is evaluated at time t: the command of the previous step x_d(t) with the rate
             # v_d over [t, t + dt]; it returns theta_d(t + dt), whose tip is the new command x_d(t + dt)
-            # (passing the new command itself would make theta_d lead it by one period, v_d * dt)
-            theta_d = self.controller.step(self._to_base(self.tip_des), self.R0.T @ v_d)
+            # (passing the new command itself would make theta_d lead it by one period, v_d * dt); a
+            # reverse x_d(t) (retracing the path) cuts the controller's path memory back to it
+            reverse = {"reverse": True} if self.tip_des_reverse else {}
+            theta_d = self.controller.step(self._to_base(self.tip_des), self.R0.T @ v_d, **reverse)
             self.tip_des = x_d
+            self.tip_des_reverse = bool(cmd.reverse)
             self.servo.command(theta_d, self.controller.thetadot_d)
             self.servo.step()
             self.steps += 1
@@ -486,6 +488,49 @@ class _Simulation:
             pinned = pinned + 1 if at_limit and np.linalg.norm(tip - x_d) > self.cfg.joint_limit_lag else 0
             if pinned >= pinned_steps:
                 return "collision" if self.contacts else "joint_limit"
+
+    def _plan(self, tip: np.ndarray, F: np.ndarray):
+        """The planner's command for the current goal (sensing first, for a sensing planner)."""
+        goal = self.goals[self.goal_index]
+        reading = None
+        if self.sensor is not None:
+            raw = self.sensor.read(self.T0 @ F[21])
+            reading = self.estimator.update(raw, self.dt)
+        last = self.goal_index == len(self.goals) - 1
+        return self.planner.step(
+            self.dt,
+            tip,
+            self.R0 @ F[20, :3, 0],
+            reading,
+            goal,
+            float(self.tolerances[self.goal_index]),
+            approach=last,
+            next_goal=None if last else self.goals[self.goal_index + 1],
+        )
+
+    def _retract(self):
+        """After the last goal of a ``retract`` world: back along the controller's recorded path (world frame).
+
+        The first call holds the last command for one period, so the controller records it and the retreat
+        starts from rest exactly at the end of its path; then a :class:`~navstack.retreat.Retreat` to the
+        arc length of the initial tip (the planner is no longer consulted).
+        """
+        from navstack.planner import TipCommand
+        from navstack.retreat import Retreat
+
+        if not self.retracting:
+            self.retracting = True
+            return TipCommand(position=self.tip_des.copy(), velocity=np.zeros(3), stalled=False, mode="retreat")
+        if self.retreat is None:
+            path = self.controller.path
+            self.retreat = Retreat(path, path.start_arc_length, self.cfg.retract_speed, self.cfg.retract_accel)
+        cmd = self.retreat.step(self.dt)
+        return replace(cmd, position=self._to_world(cmd.position), velocity=self.R0 @ cmd.velocity)
+
+    def _retracted(self, tip: np.ndarray) -> bool:
+        """Whether the actual tip is back within :data:`RETRACT_TOLERANCE` of where it was at t = 0."""
+        self.retracted = self.retracting and float(np.linalg.norm(tip - self.tip0)) <= RETRACT_TOLERANCE
+        return self.retracted
 
     def _record(self, q: np.ndarray, q_des: np.ndarray) -> None:
         tr = self.trajectory
@@ -519,6 +564,7 @@ class _Simulation:
                 "contacts": int(self.contacts),
             },
             error=error,
+            retracted=bool(self.retracted) if self.world.retract else None,
         )
 
     def close(self) -> None:

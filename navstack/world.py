@@ -19,6 +19,8 @@ Keys (anything else is an error, except inside ``extra``), whether required, def
   optional (0.02 m).
 * ``time_limit``: optional; 60.0 s.
 * ``family``: optional; ``null`` or a non-empty string (reports group by it).
+* ``retract``: optional; ``false``; ``true`` or ``false``: after the last goal the robot backs out along
+  its own path to where its tip started (interfaces.md section 2a).
 * ``extra``: optional; ``{}``; any JSON object, checked only for being finite JSON.
 
 Obstacles (``type`` is required and selects the kind):
@@ -823,6 +825,8 @@ class World(_ValueEq):
     family: str | None = None
     extra: dict[str, Any] = field(default_factory=dict)
     source: Path | None = None
+    retract: bool = False
+    """After the last goal, back out along the path until the tip is within 0.02 m of its start."""
 
     _ignore: ClassVar[tuple[str, ...]] = ("source",)
 
@@ -853,6 +857,8 @@ class World(_ValueEq):
         if not isinstance(self.extra, dict):
             raise c.error("World.extra", f"expected a dict, got {_describe(self.extra)}")
         _set(self, "extra", _json_value(c, "World.extra", self.extra))
+        if not isinstance(self.retract, bool):
+            raise c.error("World.retract", f"expected true or false, got {_describe(self.retract)}")
         if self.source is not None:
             _set(self, "source", Path(self.source).resolve())
 
@@ -872,6 +878,8 @@ class World(_ValueEq):
         d["obstacles"] = [o.to_dict(rel) for o in self.obstacles]
         d["goals"] = [g.to_dict() for g in self.goals]
         d["time_limit"] = self.time_limit
+        if self.retract:
+            d["retract"] = True
         if self.extra:
             d["extra"] = copy.deepcopy(self.extra)
         return d
@@ -1014,7 +1022,7 @@ def _array(ctx: _Ctx, path: str, v: Any, most: int, what: str) -> list | tuple:
 
 
 _TOP_REQUIRED = ("format", "name", "robot", "obstacles", "goals")
-_TOP_OPTIONAL = ("description", "time_limit", "family", "extra")
+_TOP_OPTIONAL = ("description", "time_limit", "family", "retract", "extra")
 
 
 def world_from_dict(data: Any, source: str | os.PathLike[str] | None = None, *,
@@ -1053,13 +1061,16 @@ def world_from_dict(data: Any, source: str | os.PathLike[str] | None = None, *,
         raise ctx.error("goals", "expected at least one goal, got an empty array")
     goals = tuple(_parse_goal(ctx, f"goals[{i}]", g) for i, g in enumerate(goals_raw))
     time_limit = _time_limit(ctx, "time_limit", d["time_limit"]) if "time_limit" in d else DEFAULT_TIME_LIMIT
+    retract = d.get("retract", False)
+    if not isinstance(retract, bool):
+        raise ctx.error("retract", f"expected true or false, got {_describe(retract)}")
     extra: dict[str, Any] = {}
     if "extra" in d:
         if not isinstance(d["extra"], dict):
             raise ctx.error("extra", f"expected an object, got {_describe(d['extra'])}")
         extra = _json_value(ctx, "extra", d["extra"])
     return World(name=name, robot=robot, obstacles=obstacles, goals=goals, time_limit=time_limit,
-                 description=description, family=family, extra=extra,
+                 description=description, family=family, extra=extra, retract=retract,
                  source=None if source is None else Path(source).resolve())
 
 
