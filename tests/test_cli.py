@@ -62,5 +62,5 @@ def test_run_render_says_it_wrote_scene_png(tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["run", str(world), "--out", str(out), "--planner", "scripted", "--render"]) == 0
     printed = capsys.readouterr().out
-    assert f"wrote {out / 'result.json'}, trajectory.npz and scene.png" in printed
+    assert f"wrote {out / 'result.json'}, trajectory.npz, world.json, scene.png" in printed
     assert (out / "scene.png").stat().st_size > 0
