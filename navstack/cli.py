@@ -1,8 +1,11 @@
 """The ``navstack`` command line.
 
-Exit status (interfaces.md section 3): 0 when the command ran to an outcome
-(a trial that failed is still an outcome), 2 for bad input (the message says
-what and where), 1 for an internal error.
+Exit status (interfaces.md section 3): 0 when the command ran to an outcome (a trial that failed is still
+an outcome), 2 for bad input (the message says what and where), 1 for an internal error.  For ``run`` and
+``demo`` that means: a world file that is invalid, too large, not a regular file, has a mesh outside its
+folder, a goal out of reach or a robot starting in contact with an obstacle, or an ``--out`` that cannot
+be written, all exit 2 before anything is simulated; an exception inside the simulation is recorded in
+``result.json`` as reason ``error`` (interfaces.md) and exits 1, as does any other exception.
 """
 
 from __future__ import annotations
@@ -11,7 +14,16 @@ import argparse
 import sys
 from pathlib import Path
 
+from navstack import __version__
+
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT = 0, 1, 2
+
+DESCRIPTION = "navstack: sensor-based slithering control of the JPL serpentine robot, simulated in PyBullet."
+EPILOG = """exit status: 0 the command ran to an outcome (a failed trial is an outcome), 2 bad input (the
+message names the file, the JSON path and what was expected), 1 internal error.
+
+Start with 'navstack demo'; 'navstack COMMAND --help' describes a command."""
+BYTES_PER_MB = 1024 * 1024
 
 
 class BadInput(Exception):
@@ -30,21 +42,73 @@ def _summary(result) -> str:
     )
 
 
+def _load(args: argparse.Namespace, path: str):
+    """The world file at ``path`` with the ``--allow-mesh-outside`` / ``--max-world-mb`` options."""
+    from navstack.world import load_world
+
+    return load_world(path, allow_mesh_outside=args.allow_mesh_outside,
+                      max_bytes=int(args.max_world_mb * BYTES_PER_MB))
+
+
+def _animation_config(args: argparse.Namespace):
+    """An :class:`~navstack.animate.AnimationConfig` from the ``animate`` options (defaults elsewhere)."""
+    from navstack.animate import AnimationConfig
+
+    kw = {}
+    for key in ("fps", "speed", "view"):
+        if getattr(args, key, None) is not None:
+            kw[key] = getattr(args, key)
+    if getattr(args, "size", None):
+        w, sep, h = args.size.lower().partition("x")
+        if not (sep and w.isdigit() and h.isdigit()):
+            raise BadInput(f"--size must be WIDTHxHEIGHT in pixels (e.g. 768x432), got {args.size!r}")
+        kw["width"], kw["height"] = int(w), int(h)
+    if getattr(args, "eye", None) is not None or getattr(args, "target", None) is not None:
+        kw["eye"] = tuple(args.eye) if args.eye is not None else None
+        kw["target"] = tuple(args.target) if args.target is not None else None
+    return AnimationConfig(**kw)
+
+
+def _animate_and_report(run_dir, out=None, config=None, world=None, indent: str = "") -> None:
+    from navstack.animate import animate_stats
+
+    s = animate_stats(run_dir, out, config, world)
+    c = s.config
+    print(f"{indent}wrote {s.path}: {s.frames} frames {c.width}x{c.height} at {c.fps:g} fps "
+          f"(x{c.speed:g} real time), animated in {s.seconds:.1f} s")
+
+
+def _animate(args: argparse.Namespace) -> int:
+    _animate_and_report(args.run_dir, args.out, _animation_config(args), args.world)
+    return EXIT_OK
+
+
+def _view(args: argparse.Namespace) -> int:
+    from navstack.viewer import serve
+
+    try:
+        return serve(args.run_dir, host=args.host, port=args.port, world=args.world)
+    except ImportError as exc:  # the optional extra is missing: say how to get it
+        print(f"navstack view: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+
+
 def _run(args: argparse.Namespace) -> int:
     from navstack.trial import run_trial
 
-    result = run_trial(
-        args.world,
-        controller=args.controller,
-        planner=args.planner,
-        seed=args.seed,
-        out_dir=args.out,
-        render=args.render,
-    )
+    # bad input raises before anything is simulated: WorldError, TrialInputError (an unwritable --out)
+    result = run_trial(_load(args, args.world), controller=args.controller, planner=args.planner, seed=args.seed,
+                       out_dir=args.out, render=args.render)
+    out = Path(args.out)
     print(_summary(result))
-    if result.error:
-        print(f"  error: {result.error}", file=sys.stderr)
-    print(f"wrote {Path(args.out) / 'result.json'} and trajectory.npz")
+    print(f"wrote {out / 'result.json'}, trajectory.npz, world.json"
+          + (", scene.png" if args.render and result.reason != "error" else ""))
+    if result.reason == "error":
+        print(f"navstack run: internal error during the simulation (recorded in result.json as reason "
+              f"\"error\"): {result.error}", file=sys.stderr)
+        return EXIT_INTERNAL
+    if args.animate:
+        _animate_and_report(args.out)
     return EXIT_OK
 
 
@@ -55,30 +119,37 @@ def _demo(args: argparse.Namespace) -> int:
 
     world = world_from_dict(paper_truss_world())
     print(f"navstack demo: {world.description}")
-    results = []
+    status = EXIT_OK
     for controller in args.controller or ["slither", "tip-only"]:
         out = Path(args.out) / controller
         result = run_trial(world, controller=controller, planner=args.planner, seed=args.seed, out_dir=out, render=True)
         print(f"[{controller}] " + _summary(result))
-        print(f"  wrote {out}/result.json, trajectory.npz, scene.png")
-        results.append(result)
-    return EXIT_OK
+        print(f"  wrote {out}/result.json, trajectory.npz, world.json, scene.png")
+        if result.reason == "error":
+            print(f"navstack demo: internal error during the simulation: {result.error}", file=sys.stderr)
+            status = EXIT_INTERNAL
+        elif not args.no_animate:
+            _animate_and_report(out, indent="  ")
+    return status
 
 
 def _check_world(args: argparse.Namespace) -> int:
-    from navstack.trial import check_reach
-    from navstack.world import WorldError, load_world
+    from navstack.trial import check_reach, check_start
+    from navstack.world import WorldError
 
     status = EXIT_OK
     for path in args.files:
         try:
-            w = load_world(path)
+            w = _load(args, path)
             check_reach(w)
-        except (WorldError, ValueError, OSError) as exc:
+            check_start(w)
+        except WorldError as exc:
             print(f"navstack check-world: error: {exc}", file=sys.stderr)
             status = EXIT_BAD_INPUT
             continue
-        print(f"{path}: ok ({w.name}: {len(w.obstacles)} obstacles, {len(w.goals)} goals, time limit {w.time_limit} s)")
+        moving = sum(getattr(o, "motion", None) is not None for o in w.obstacles)
+        print(f"{path}: ok ({w.name}: {len(w.obstacles)} obstacles{f' ({moving} moving)' if moving else ''}, "
+              f"{len(w.goals)} goals, time limit {w.time_limit:g} s, robot clear of every obstacle at t = 0)")
     return status
 
 
@@ -123,13 +194,71 @@ def _model(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _non_negative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {text!r}")
+    return value
+
+
+def _positive_mb(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (value > 0 and value * BYTES_PER_MB < 2**62):
+        raise argparse.ArgumentTypeError(f"expected a positive number of megabytes, got {text!r}")
+    return value
+
+
+def _families_help() -> str:
+    """The world families with their one-line summaries and difficulty knobs (from the registry)."""
+    from navstack.registry import FAMILIES
+
+    lines = ["families, and what --difficulty (0 easy .. 1 hard) changes in each:"]
+    for e in FAMILIES.values():
+        lines += [f"  {e.name:16s}{e.summary}", f"  {'':16s}difficulty: {e.difficulty}"]
+    return "\n".join(lines)
+
+
+def _add_world_options(parser: argparse.ArgumentParser) -> None:
+    from navstack.world import MAX_WORLD_BYTES
+
+    parser.add_argument("--allow-mesh-outside", action="store_true",
+                        help="accept mesh paths that are absolute or lead outside the world file's folder "
+                             "(refused by default)")
+    parser.add_argument("--max-world-mb", type=_positive_mb, default=MAX_WORLD_BYTES / BYTES_PER_MB,
+                        metavar="MB", help=f"refuse world files larger than this (default "
+                                           f"{MAX_WORLD_BYTES / BYTES_PER_MB:g} MB)")
+
+
+def _urdf(args: argparse.Namespace) -> int:
+    from navstack import jpl
+    from navstack.urdf import UrdfOptions
+
+    opts = UrdfOptions(serpentine_radius=args.serpentine_radius, arm_radius=args.arm_radius)
+    text = jpl.jpl_serpentine().to_urdf(opts)
+    if args.out is None:
+        sys.stdout.write(text)
+        return EXIT_OK
+    Path(args.out).write_text(text, encoding="utf-8")
+    print(f"wrote {args.out} (20 joints, links dh0..dh21; PyBullet: loadURDF(..., useFixedBase=True, "
+          "flags=URDF_USE_INERTIA_FROM_FILE | URDF_USE_IMPLICIT_CYLINDER))")
+    return EXIT_OK
+
+
 def build_parser() -> argparse.ArgumentParser:
     from navstack.registry import controller_names, planner_names
 
     CONTROLLERS, PLANNERS = controller_names(), planner_names()
+    raw = argparse.RawDescriptionHelpFormatter
 
-    p = argparse.ArgumentParser(prog="navstack", description=__doc__.splitlines()[0])
-    sub = p.add_subparsers(dest="command", required=True)
+    p = argparse.ArgumentParser(prog="navstack", description=DESCRIPTION, epilog=EPILOG, formatter_class=raw)
+    p.add_argument("--version", action="version", version=f"navstack {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     d = sub.add_parser("demo", help="the paper's truss demo, headless (writes result.json, trajectory.npz, scene.png)")
     d.add_argument("--out", default="out/demo", help="output folder (default: out/demo)")
@@ -140,7 +269,8 @@ def build_parser() -> argparse.ArgumentParser:
         choices=CONTROLLERS,
         help="repeatable (default: slither, then the tip-only baseline)",
     )
-    d.add_argument("--seed", type=int, default=0)
+    d.add_argument("--seed", type=_non_negative_int, default=0)
+    d.add_argument("--no-animate", action="store_true", help="skip the animation of each trial (animation.mp4)")
     d.set_defaults(func=_demo)
 
     r = sub.add_parser("run", help="run one closed-loop trial headless")
@@ -148,22 +278,49 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out", required=True, help="output folder for result.json and trajectory.npz")
     r.add_argument("--controller", choices=CONTROLLERS, default="slither")
     r.add_argument("--planner", choices=PLANNERS, default="field")
-    r.add_argument("--seed", type=int, default=0, help="seed of the sensor noise (default 0)")
+    r.add_argument("--seed", type=_non_negative_int, default=0, help="seed of the sensor noise (default 0)")
     r.add_argument("--render", action="store_true", help="also write scene.png (TinyRenderer)")
+    _add_world_options(r)
+    r.add_argument("--animate", action="store_true", help="also write animation.mp4 (see: navstack animate)")
     r.set_defaults(func=_run)
 
-    c = sub.add_parser("check-world", help="validate world files without running them")
+    a = sub.add_parser("animate", help="animate a run folder (trajectory.npz + world.json) to MP4 or GIF")
+    a.add_argument("run_dir", help="a folder written by navstack run --out (or demo, or a sweep's kept trial)")
+    a.add_argument("--out", help="file to write, .mp4 or .gif (default: RUN_DIR/animation.mp4)")
+    a.add_argument("--fps", type=float, help="frames per second (default 15)")
+    a.add_argument("--speed", type=float, help="simulated seconds per second of video (default 1: real time)")
+    a.add_argument("--size", help="WIDTHxHEIGHT in pixels, multiples of 16 (default 768x432)")
+    a.add_argument("--view", choices=("auto", "front", "side", "top"),
+                   help="camera direction (default auto: chosen from the trajectory)")
+    a.add_argument("--eye", type=float, nargs=3, metavar=("X", "Y", "Z"), help="camera position (world, m)")
+    a.add_argument("--target", type=float, nargs=3, metavar=("X", "Y", "Z"), help="point looked at (world, m)")
+    a.add_argument("--world", help="the world file, for run folders without world.json")
+    a.set_defaults(func=_animate)
+
+    v = sub.add_parser("view", help="3D viewer of a run folder in the browser (needs: pip install 'navstack[viewer]')")
+    v.add_argument("run_dir", help="a folder written by navstack run --out")
+    v.add_argument("--port", type=int, default=8080, help="local port (default 8080; the next free one if taken)")
+    v.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
+    v.add_argument("--world", help="the world file, for run folders without world.json")
+    v.set_defaults(func=_view)
+
+
+    c = sub.add_parser("check-world", help="validate world files without running them (also: goals in reach, "
+                                           "robot clear of every obstacle at the start)")
     c.add_argument("files", nargs="+")
+    _add_world_options(c)
     c.set_defaults(func=_check_world)
 
-    g = sub.add_parser("generate", help="write a randomized world of a family")
-    g.add_argument("family")
-    g.add_argument("--seed", type=int, required=True)
+    g = sub.add_parser("generate", help="write a randomized world of a family", epilog=_families_help(),
+                       formatter_class=raw)
+    g.add_argument("family", metavar="FAMILY", help="one of the families listed below")
+    g.add_argument("--seed", type=int, required=True, help="the world's seed (same seed, same world)")
     g.add_argument("--difficulty", type=float, default=0.5, help="0 (easy) .. 1 (hard), default 0.5")
     g.add_argument("--out", required=True, help="world file to write")
     g.set_defaults(func=_generate)
 
-    t = sub.add_parser("trials", help="run many trials in parallel into DIR/results.jsonl (resumable)")
+    t = sub.add_parser("trials", help="run many trials in parallel into DIR/results.jsonl (resumable)",
+                       epilog=_families_help(), formatter_class=raw)
     from navstack.sweep import add_trials_arguments
 
     add_trials_arguments(t)
@@ -177,27 +334,46 @@ def build_parser() -> argparse.ArgumentParser:
 
     m = sub.add_parser("model", help="print the robot model (Figure 2 in metres) and the default posture")
     m.set_defaults(func=_model)
+
+    u = sub.add_parser("urdf", help="write the robot as URDF (joint limits, capsule collision geometry, masses)")
+    u.add_argument("--out", help="URDF file to write (default: standard output)")
+    u.add_argument("--serpentine-radius", type=float, default=0.025, help="serpentine capsule radius [m]")
+    u.add_argument("--arm-radius", type=float, default=0.06, help="arm capsule radius [m]")
+    u.set_defaults(func=_urdf)
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    from navstack.trial import TrialInputError
     from navstack.world import WorldError
 
+    name = f"navstack {args.command}"
+    # for these commands every input is checked up front, so any other exception is internal
+    checked = args.command in ("run", "demo", "check-world")
     try:
         return args.func(args)
-    except (WorldError, BadInput, ValueError, OSError) as exc:  # OSError: an unusable --out or input path
-        print(f"navstack {args.command}: error: {exc}", file=sys.stderr)
+    except (WorldError, BadInput, TrialInputError) as exc:
+        print(f"{name}: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except (ValueError, OSError) as exc:  # other commands: an unusable path or value given by the user
+        if checked:
+            return _internal(name, exc, argv)
+        print(f"{name}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
-        print(f"navstack {args.command}: interrupted", file=sys.stderr)
+        print(f"{name}: interrupted", file=sys.stderr)
         return 130
     except Exception as exc:  # noqa: BLE001 - internal error: exit 1 with a one-line message
-        print(f"navstack {args.command}: internal error: {type(exc).__name__}: {exc}", file=sys.stderr)
-        if "--debug" in (argv or sys.argv):
-            raise
-        return EXIT_INTERNAL
+        return _internal(name, exc, argv)
+
+
+def _internal(name: str, exc: BaseException, argv: list[str] | None) -> int:
+    print(f"{name}: internal error: {type(exc).__name__}: {exc}", file=sys.stderr)
+    if "--debug" in (argv or sys.argv):
+        raise exc
+    return EXIT_INTERNAL
 
 
 if __name__ == "__main__":

@@ -214,3 +214,13 @@ class Chain:
     def clip(self, q: ArrayLike) -> NDArray[np.float64]:
         """``q`` clipped into the joint limits."""
         return np.clip(np.asarray(q, dtype=np.float64), self.lower, self.upper)
+
+    def to_urdf(self, options=None) -> str:
+        """This chain as a URDF document (a string): links ``dh0..dh<rows>``, joint limits, capsule
+        collision geometry (cylinder + two spheres each), lumped masses; see :mod:`navstack.urdf`.
+
+        ``options`` is a :class:`navstack.urdf.UrdfOptions` (radii [m], masses [kg], inertias [kg m^2]).
+        """
+        from navstack.urdf import chain_to_urdf
+
+        return chain_to_urdf(self, options)

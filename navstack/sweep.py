@@ -908,7 +908,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
     src = parser.add_mutually_exclusive_group(required=True)
     src.add_argument("--generate", nargs="+", metavar="FAMILY",
-                     help="world families to generate: " + ", ".join(FAMILIES))
+                     help="world families to generate (listed below): " + ", ".join(FAMILIES))
     src.add_argument("--worlds", metavar="DIR", help="run every *.json world file in DIR")
     parser.add_argument("--count", type=int, default=1,
                         help="worlds per family and difficulty (--generate) "

@@ -23,14 +23,24 @@ failing controller is seen cutting through members and the depth is reported
 as a negative ``min_clearance``.  The trial ends when every goal is reached,
 at ``time_limit``, when the planner reports a stall, or when the arm is pinned
 at a joint limit while the tip lags its command.
+
+Moving obstacles (interfaces.md section 2b) are placed at the step's time by
+``Scene.update`` once per control step, before the sensors and the clearance
+query read them; the planner and controller are told nothing of them.
+
+Before anything is simulated, ``run_trial`` refuses (``WorldError``, naming the
+field) a goal out of reach (:func:`check_reach`) and a robot that starts in
+contact with or inside an obstacle (:func:`check_start`), and
+(``TrialInputError``) an output folder it cannot write (:func:`check_out_dir`).
 """
 
 from __future__ import annotations
 
 import json
 import os
+import tempfile
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -41,8 +51,11 @@ from navstack.planner.field import FieldPlannerConfig
 from navstack.planner.legacy import PlannerConfig
 from navstack.sensing import SensorConfig
 from navstack.sim.servo import ServoConfig
+from navstack.world import WorldError
 
 REASONS = ("reached", "collision", "timeout", "stalled", "joint_limit", "error")
+RETRACT_TOLERANCE = 0.02
+"""A retraction is complete when the actual tip is this close [m] to where it was at t = 0 (spec 2a)."""
 
 
 @dataclass(frozen=True)
@@ -66,11 +79,16 @@ class TrialConfig:
     """A joint held at its limit this long [s] while the tip lags by > ``joint_limit_lag`` ends the trial."""
     joint_limit_lag: float = 0.05
     """Tip lag [m] that, with a pinned joint, counts as a joint-limit failure."""
+    retract_speed: float = 0.06
+    """Tip speed [m/s] of the retraction of ``retract`` worlds (back along the recorded path)."""
+    retract_accel: float = 0.1
+    """Acceleration and braking [m/s^2] of the retraction."""
 
     def __post_init__(self) -> None:
         if self.slither_mode not in ("projected", "full"):
             raise ValueError(f"TrialConfig.slither_mode must be 'projected' or 'full', got {self.slither_mode!r}")
-        for name in ("scripted_speed", "clearance_horizon", "joint_limit_time", "joint_limit_lag"):
+        for name in ("scripted_speed", "clearance_horizon", "joint_limit_time", "joint_limit_lag", "retract_speed",
+                     "retract_accel"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
                 raise ValueError(f"TrialConfig.{name} must be a positive number, got {v!r}")
@@ -92,11 +110,14 @@ class TrialResult:
     wall_time: float
     metrics: dict[str, float | int]
     error: str | None = None
+    retracted: bool | None = None
+    """``retract`` worlds only: whether the retraction completed (absent from ``result.json`` otherwise)."""
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
-        if d["error"] is None:
-            del d["error"]
+        for optional in ("error", "retracted"):
+            if d[optional] is None:
+                del d[optional]
         return d
 
 
@@ -128,9 +149,42 @@ def _write_json(path: Path, data: dict[str, Any]) -> None:
     os.replace(tmp, path)
 
 
+class TrialInputError(ValueError):
+    """Bad input to :func:`run_trial` other than the world (which raises ``WorldError``): an unknown
+    controller or planner, a bad seed, an output folder that cannot be written."""
+
+
 def _check_choice(name: str, value: str, allowed: tuple[str, ...]) -> None:
     if value not in allowed:
-        raise ValueError(f"{name} must be one of {', '.join(allowed)}; got {value!r}")
+        raise TrialInputError(f"{name} must be one of {', '.join(allowed)}; got {value!r}")
+
+
+def check_out_dir(out_dir: str | os.PathLike) -> Path:
+    """Create the output folder ``out_dir`` if needed and check that files can be written in it, before
+    any simulation; returns it as a ``Path``.
+
+    Raises:
+        TrialInputError: in one plain sentence, when the folder cannot be created or written.
+    """
+    out = Path(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        why = "a file of that name exists" if isinstance(e, FileExistsError) else _reason(e)
+        raise TrialInputError(f"cannot create the output folder {out} ({why}); choose another --out") from e
+    if not out.is_dir():
+        raise TrialInputError(f"the output folder {out} is a file, not a folder; choose another --out")
+    try:
+        with tempfile.NamedTemporaryFile(dir=out, prefix=".navstack-write-test-"):
+            pass
+    except OSError as e:
+        raise TrialInputError(f"cannot write into the output folder {out} ({_reason(e)}); "
+                              f"choose another --out") from e
+    return out
+
+
+def _reason(e: OSError) -> str:
+    return (e.strerror or type(e).__name__).lower()
 
 
 def run_trial(
@@ -146,11 +200,14 @@ def run_trial(
     """Run one closed-loop trial headless and return its result.
 
     ``world`` is a :class:`navstack.world.World`, a path to a world file, or a parsed world dict.
-    With ``out_dir`` the trial writes ``result.json`` and ``trajectory.npz``
-    there (and ``scene.png`` with ``render=True``).  Bad input (an unreadable
-    world, an unknown controller or planner) raises ``WorldError`` /
-    ``ValueError``; a failure inside the simulation is returned as reason
-    ``error`` with the message in ``error``.
+    With ``out_dir`` the trial writes ``result.json``, ``trajectory.npz`` and the world it ran,
+    ``world.json`` (:mod:`navstack.rundir`), there (and ``scene.png`` with ``render=True``).  Bad input raises before
+    anything is simulated: ``WorldError`` for the world (unreadable, invalid,
+    a goal out of reach, a robot starting in contact with an obstacle) and
+    ``TrialInputError`` for the rest (an unknown controller or planner, a bad
+    seed, an output folder that cannot be written); both are ``ValueError``.
+    A failure inside the simulation is returned as reason ``error`` with the
+    message in ``error`` (``navstack run`` then exits 1).
     """
     from navstack.registry import controller_names, planner_names
     from navstack.world import World, load_world, world_from_dict
@@ -158,16 +215,19 @@ def run_trial(
     _check_choice("controller", controller, controller_names())
     _check_choice("planner", planner, planner_names())
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+        raise TrialInputError(f"seed must be a non-negative integer, got {seed!r}")
     cfg = config or TrialConfig()
     if isinstance(world, dict):
         world = world_from_dict(world)
     elif not isinstance(world, World):
         world = load_world(world)
     check_reach(world)
-    out = Path(out_dir) if out_dir is not None else None
+    check_start(world)
+    out = check_out_dir(out_dir) if out_dir is not None else None
     if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
+        from navstack.rundir import write_run_world
+
+        write_run_world(world, out)  # world.json (meshes copied to out/meshes/): animate and view read it
 
     sim = _Simulation(world, controller, planner, int(seed), cfg)
     wall0 = time.perf_counter()
@@ -227,7 +287,7 @@ def make_scripted_planner(ctx):
 
 
 def check_reach(world) -> None:
-    """Refuse goals that no configuration can reach (``ValueError`` naming the goal).
+    """Refuse goals that no configuration can reach (``WorldError`` naming the goal).
 
     A conservative test: a goal farther from the lathe bed's travel (the segment swept by frame 1 over
     the lathe's joint range) than the sum of the fixed distances between consecutive frame origins 1..21
@@ -249,11 +309,40 @@ def check_reach(world) -> None:
         t = float(np.clip((g - a) @ ab / max(float(ab @ ab), 1e-12), 0.0, 1.0))
         dist = float(np.linalg.norm(g - (a + t * ab)))
         if dist > reach + goal.tolerance:
-            where = world.source if world.source is not None else world.name
-            raise ValueError(
-                f"{where}: goals[{k}].position {np.round(g, 3).tolist()} is {dist:.2f} m from the lathe bed's "
-                f"travel, beyond the robot's reach ({reach:.2f} m): no configuration reaches it"
-            )
+            raise WorldError(
+                f"{np.round(g, 3).tolist()} is {dist:.2f} m from the lathe bed's travel (placed by robot.base), "
+                f"beyond the robot's reach ({reach:.2f} m): no configuration reaches it",
+                file=world.source, json_path=f"goals[{k}].position")
+
+
+def check_start(world) -> None:
+    """Refuse a robot that starts in contact with or inside an obstacle (``WorldError`` naming it).
+
+    Checked in PyBullet: the robot at ``q0`` and the obstacles at t = 0 (moving ones displaced by their
+    ``d(0)``); an obstacle at a signed distance <= 0 m from any robot link is named by its JSON path
+    (``obstacles[3]``).  Such a trial would count a contact from its first step; refusing it makes the
+    world's mistake bad input.  A robot part inside a closed *mesh* is not seen (meshes are surfaces).
+    """
+    from navstack.sim._bullet import direct_client
+    from navstack.sim.body import RobotBody
+    from navstack.sim.scene import Scene
+
+    client = direct_client()
+    try:
+        body = RobotBody.build(client, jpl_serpentine(), world.robot.base.transform(),
+                               serpentine_radius=world.robot.serpentine_radius, arm_radius=world.robot.arm_radius)
+        body.reset(world.robot.q0)
+        scene = Scene.build(client, world)
+        client.performCollisionDetection()
+        hits = scene.touching(body.body_id)
+    finally:
+        client.disconnect()
+    if hits:
+        i, d = hits[0]
+        how = "touches" if d > -1e-6 else f"penetrates {-d:.3g} m into"
+        others = "" if len(hits) == 1 else f" (so do obstacles {', '.join(f'[{j}]' for j, _ in hits[1:])})"
+        raise WorldError(f"the robot at q0 {how} this {world.obstacles[i].type} at t = 0{others}; a trial must "
+                         f"start clear of every obstacle", file=world.source, json_path=f"obstacles[{i}]")
 
 
 def _save(out: Path | None, sim: _Simulation, reason: str, error: str | None, wall: float, render: bool):
@@ -263,7 +352,7 @@ def _save(out: Path | None, sim: _Simulation, reason: str, error: str | None, wa
         if render and reason != "error":
             from navstack.render import render_scene
 
-            render_scene(sim, out / "scene.png")
+            render_scene(sim, out / "scene.png", result)
         _write_json(out / "result.json", result.to_dict())
     sim.close()
     return result
@@ -334,6 +423,11 @@ class _Simulation:
         self.contacts = 0
         self.pinned_time = 0.0
         self.tip_des = tip0.copy()
+        self.tip_des_reverse = False
+        self.tip0 = tip0.copy()
+        self.retracting = False
+        self.retreat = None
+        self.retracted = False
         self.closed = False
 
     # ---- frames ---------------------------------------------------------
@@ -373,16 +467,11 @@ class _Simulation:
         pinned = 0
         while True:
             self._advance_goals(tip)
-            if self.goal_index >= len(self.goals):
+            if self.goal_index >= len(self.goals) and (not self.world.retract or self._retracted(tip)):
                 return "collision" if self.contacts else "reached"
             if self.steps >= limit_steps:
                 return "collision" if self.contacts else "timeout"
-            reading = None
-            if self.sensor is not None:
-                tip_T = self.T0 @ F[21]
-                raw = self.sensor.read(tip_T)
-                reading = self.estimator.update(raw, self.dt)
-            cmd = self.planner.step(self.dt, tip, self.R0 @ F[20, :3, 0], reading, self.goal_index)
+            cmd = self._plan(tip, F) if self.goal_index < len(self.goals) else self._retract()
             if cmd.stalled:
                 return "collision" if self.contacts else "stalled"
             x_d = np.asarray(cmd.position, dtype=np.float64)
@@ -391,12 +480,17 @@ class _Simulation:
                 raise FloatingPointError(f"planner produced a non-finite tip command at step {self.steps}")
             # equation (4) is evaluated at time t: the command of the previous step x_d(t) with the rate
             # v_d over [t, t + dt]; it returns theta_d(t + dt), whose tip is the new command x_d(t + dt)
-            # (passing the new command itself would make theta_d lead it by one period, v_d * dt)
-            theta_d = self.controller.step(self._to_base(self.tip_des), self.R0.T @ v_d)
+            # (passing the new command itself would make theta_d lead it by one period, v_d * dt); a
+            # reverse x_d(t) (retracing the path) cuts the controller's path memory back to it
+            reverse = {"reverse": True} if self.tip_des_reverse else {}
+            theta_d = self.controller.step(self._to_base(self.tip_des), self.R0.T @ v_d, **reverse)
             self.tip_des = x_d
+            self.tip_des_reverse = bool(cmd.reverse)
             self.servo.command(theta_d, self.controller.thetadot_d)
             self.servo.step()
             self.steps += 1
+            if self.scene.update(self.steps * self.dt):  # moving obstacles, before rays and clearance
+                self.client.performCollisionDetection()
             q, _ = self.body.joint_state()
             tip, F = self._measure(q)
             self.tip_error_max = max(self.tip_error_max, float(np.linalg.norm(tip - x_d)))
@@ -405,6 +499,38 @@ class _Simulation:
             pinned = pinned + 1 if at_limit and np.linalg.norm(tip - x_d) > self.cfg.joint_limit_lag else 0
             if pinned >= pinned_steps:
                 return "collision" if self.contacts else "joint_limit"
+
+    def _plan(self, tip: np.ndarray, F: np.ndarray):
+        """The planner's command for the current goal (sensing first, for a sensing planner)."""
+        reading = None
+        if self.sensor is not None:
+            raw = self.sensor.read(self.T0 @ F[21])
+            reading = self.estimator.update(raw, self.dt)
+        return self.planner.step(self.dt, tip, self.R0 @ F[20, :3, 0], reading, self.goal_index)
+
+    def _retract(self):
+        """After the last goal of a ``retract`` world: back along the controller's recorded path (world frame).
+
+        The first call holds the last command for one period, so the controller records it and the retreat
+        starts from rest exactly at the end of its path; then a :class:`~navstack.retreat.Retreat` to the
+        arc length of the initial tip (the planner is no longer consulted).
+        """
+        from navstack.planner import TipCommand
+        from navstack.retreat import Retreat
+
+        if not self.retracting:
+            self.retracting = True
+            return TipCommand(position=self.tip_des.copy(), velocity=np.zeros(3), stalled=False, mode="retreat")
+        if self.retreat is None:
+            path = self.controller.path
+            self.retreat = Retreat(path, path.start_arc_length, self.cfg.retract_speed, self.cfg.retract_accel)
+        cmd = self.retreat.step(self.dt)
+        return replace(cmd, position=self._to_world(cmd.position), velocity=self.R0 @ cmd.velocity)
+
+    def _retracted(self, tip: np.ndarray) -> bool:
+        """Whether the actual tip is back within :data:`RETRACT_TOLERANCE` of where it was at t = 0."""
+        self.retracted = self.retracting and float(np.linalg.norm(tip - self.tip0)) <= RETRACT_TOLERANCE
+        return self.retracted
 
     def _record(self, q: np.ndarray, q_des: np.ndarray) -> None:
         tr = self.trajectory
@@ -438,6 +564,7 @@ class _Simulation:
                 "contacts": int(self.contacts),
             },
             error=error,
+            retracted=bool(self.retracted) if self.world.retract else None,
         )
 
     def close(self) -> None:

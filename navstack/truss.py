@@ -102,6 +102,8 @@ def paper_truss_world(
     truss_offset: ArrayLike = (0.0, 0.0, 0.0),
     truss_rpy: ArrayLike = (0.0, 0.0, 0.0),
     name: str = "paper-truss",
+    retract: bool = False,
+    time_limit: float = 60.0,
 ) -> dict[str, Any]:
     """The paper's demo as a ``navstack-world/1`` dict.
 
@@ -111,7 +113,8 @@ def paper_truss_world(
     climbing inside the bay, out through the top.  ``truss_offset`` [m] and
     ``truss_rpy`` [rad] move the *actual* truss away from its drawing (about
     the entry opening's centre) while the goals stay where the drawing puts
-    them: the uncertain workspace of issue 4.
+    them: the uncertain workspace of issue 4.  ``retract=True`` adds ``"retract": true`` (after the last
+    goal the robot backs out along its path to its start; interfaces.md section 2a); ``time_limit`` [s].
     """
     tip, heading = robot_tip_start(base_position, PAPER_BASE_RPY)
     c = incircle_offset(side)
@@ -128,7 +131,7 @@ def paper_truss_world(
         a = R @ (origin + p0 - pivot) + pivot + shift
         b = R @ (origin + p1 - pivot) + pivot + shift
         obstacles.append({"type": "cylinder", "p0": _r(a), "p1": _r(b), "radius": member_radius})
-    return {
+    world = {
         "format": "navstack-world/1",
         "name": name,
         "description": (
@@ -145,8 +148,12 @@ def paper_truss_world(
         },
         "obstacles": obstacles,
         "goals": [{"position": _r(g), "tolerance": 0.02} for g in goals],
-        "time_limit": 60.0,
+        "time_limit": float(time_limit),
     }
+    if retract:
+        world["retract"] = True
+        world["description"] += " Then it retracts along its own path, all the way back out of the entry opening."
+    return world
 
 
 def _r(v: ArrayLike) -> list[float]:

@@ -1,6 +1,6 @@
 """World files (``navstack-world/1``, JSON): load, validate, save.
 
-A world is the robot's base placement and start posture, static obstacles
+A world is the robot's base placement and start posture, obstacles, static or moving
 (known to the simulator only: the planner and controller never read them) and
 tip goals.  The format is interfaces.md section 2.  Units: metres, radians,
 seconds.
@@ -13,23 +13,71 @@ Keys (anything else is an error, except inside ``extra``), whether required, def
 * ``robot``: required; an object (may be ``{}``), with all keys optional:
   ``base`` (``{"position": [0,0,0], "rpy": [0,0,0]}``, each of the two optional; m and rad: roll about
   world X, pitch about world Y, yaw about world Z, in that order), ``q0`` (:data:`navstack.jpl.Q_DEFAULT`;
-  20 numbers inside the joint limits), ``serpentine_radius`` (0.025 m, > 0), ``arm_radius`` (0.06 m, > 0).
+  20 numbers inside the joint limits), ``serpentine_radius`` (0.025 m), ``arm_radius`` (0.06 m).
 * ``obstacles``: required; an array, may be empty (see below).
 * ``goals``: required; an array of at least one ``{"position": [x,y,z], "tolerance": t}``, ``tolerance``
-  optional (0.02 m, > 0).
-* ``time_limit``: optional; 60.0 s, > 0.
+  optional (0.02 m).
+* ``time_limit``: optional; 60.0 s.
 * ``family``: optional; ``null`` or a non-empty string (reports group by it).
+* ``retract``: optional; ``false``; ``true`` or ``false``: after the last goal the robot backs out along
+  its own path to where its tip started (interfaces.md section 2a).
 * ``extra``: optional; ``{}``; any JSON object, checked only for being finite JSON.
 
 Obstacles (``type`` is required and selects the kind):
 
-* ``cylinder``: ``p0``, ``p1`` (m, required, at least 1e-9 m apart), ``radius`` (m, required, > 0).
+* ``cylinder``: ``p0``, ``p1`` (m, required), ``radius`` (m, required), ``motion`` (optional, below).
   Flat-ended, its axis from ``p0`` to ``p1``.
-* ``box``: ``center`` (m, required), ``half_extents`` (m, required, each > 0), ``rpy`` (rad, default 0).
-* ``sphere``: ``center`` (m, required), ``radius`` (m, required, > 0).
-* ``mesh``: ``path`` (required; relative to the world file's folder, or absolute; any format trimesh reads),
-  ``position`` (m, default 0), ``rpy`` (rad, default 0), ``scale`` (default 1.0, > 0).  The file is loaded
-  with trimesh when the world is loaded; it must exist and contain at least one triangle.
+* ``box``: ``center`` (m, required), ``half_extents`` (m, required), ``rpy`` (rad, default 0), ``motion``.
+* ``sphere``: ``center`` (m, required), ``radius`` (m, required), ``motion``.
+* ``mesh``: ``path`` (required; relative to the world file's folder; any format trimesh reads),
+  ``position`` (m, default 0), ``rpy`` (rad, default 0), ``scale`` (default 1.0).  The file is loaded
+  with trimesh when the world is loaded; it must exist and contain at least one triangle.  A mesh may not
+  carry ``motion``.
+
+Moving obstacles (interfaces.md section 2b): ``motion`` translates a cylinder, box or sphere (never rotates
+it) by d(t), t the simulated time since the trial's start (s):
+
+* ``{"type": "linear", "velocity": [vx, vy, vz], "start": 0.0, "stop": ...}``: d(t) = velocity *
+  clamp(t - start, 0, stop - start); ``velocity`` m/s (required), ``start`` s (default 0), ``stop`` s
+  (default: never; at least ``start``).
+* ``{"type": "oscillate", "axis": [ax, ay, az], "amplitude": A, "period": T, "phase": 0.0}``: d(t) =
+  A * unit(axis) * sin(2 pi t / T + phase); ``axis`` non-zero (required), ``amplitude`` m (required),
+  ``period`` s (required), ``phase`` rad (default 0).
+
+Bounds (so that no value can overflow the simulator's geometry and turn into a wrong result; every one is
+a module constant):
+
+* coordinates (``robot.base.position``, ``p0``, ``p1``, ``center``, mesh ``position``, goal ``position``,
+  ``motion.axis``): each within +-:data:`MAX_COORDINATE` (1 km) of the world origin;
+* obstacle sizes (``radius``, each of ``half_extents``, a cylinder's length ``|p1 - p0|``, an oscillation's
+  ``amplitude``): in [:data:`MIN_LENGTH`, :data:`MAX_LENGTH`] = [0.1 mm, 1 km] (``amplitude`` may be 0);
+  a mesh's ``scale`` in [:data:`MIN_MESH_SCALE`, :data:`MAX_MESH_SCALE`] = [1e-4, 1e4], and its scaled
+  vertices within :data:`MAX_LENGTH` of the mesh's own origin;
+* robot radii (``serpentine_radius``, ``arm_radius``): in [:data:`MIN_ROBOT_RADIUS`,
+  :data:`MAX_ROBOT_RADIUS`] = [0.01, 0.5] m; goal ``tolerance`` in [:data:`MIN_TOLERANCE`,
+  :data:`MAX_TOLERANCE`] = [0.1 mm, 1 m];
+* angles (every ``rpy`` value, ``motion.phase``): within +-:data:`MAX_ANGLE` (2 pi rad; a larger value is
+  most likely degrees);
+* ``time_limit`` in (0, :data:`MAX_TIME_LIMIT`] = (0, 3600] s; ``motion.start``, ``stop`` in [0,
+  :data:`MAX_MOTION_TIME`] s and ``period`` in (0, :data:`MAX_MOTION_TIME`] s;
+* moving obstacles are at most :data:`MAX_OBSTACLE_SPEED` (0.5 m/s) fast: ``|velocity|`` and the peak
+  speed 2 pi ``amplitude`` / ``period`` of an oscillation.  At the default 30 Hz control rate that is at
+  most 17 mm per control step, less than the thinnest allowed link (2 x 0.01 m), so an obstacle cannot
+  jump through a link between two contact checks;
+* at most :data:`MAX_OBSTACLES` (10000) obstacles and :data:`MAX_GOALS` (1000) goals; ``extra`` nested at
+  most :data:`MAX_EXTRA_DEPTH` (64) levels deep;
+* the file: a regular file (not a directory, FIFO or device) of at most :data:`MAX_WORLD_BYTES` (64 MiB;
+  ``load_world(path, max_bytes=...)`` raises it), checked before it is parsed.
+
+Mesh paths must stay inside the world file's folder tree (after resolving ``..`` and symbolic links):
+absolute paths and paths that leave it are refused unless ``allow_mesh_outside=True`` (``navstack run``
+/ ``check-world --allow-mesh-outside``), so a world file from someone else cannot make navstack read
+files elsewhere.  World data built in code (``world_from_dict(data)`` without ``source``) names no folder:
+its relative mesh paths are resolved against the current directory and are not restricted.
+
+The start condition (the robot at ``q0`` clear of every obstacle at t = 0) needs the simulator and is
+checked by :func:`navstack.trial.check_start` (``run_trial``, ``navstack run`` and ``check-world`` all
+call it).
 
 Numbers are JSON numbers: ``true``/``false`` are not numbers, and the ``NaN``/``Infinity`` literals
 (which Python's :mod:`json` accepts) and overflowing values such as ``1e400`` are rejected.  Duplicate
@@ -51,6 +99,7 @@ import copy
 import json
 import math
 import os
+import stat
 from dataclasses import dataclass, field, fields
 from functools import lru_cache
 from pathlib import Path
@@ -69,10 +118,45 @@ DEFAULT_TIME_LIMIT = 60.0
 """Seconds, when ``time_limit`` is absent."""
 DEFAULT_TOLERANCE = 0.02
 """Metres, when a goal has no ``tolerance``."""
-MIN_CYLINDER_LENGTH = 1e-9
-"""Metres: a cylinder's ``p0`` and ``p1`` must be at least this far apart."""
 JOINT_LIMIT_SLACK = 1e-9
 """Radians (metres for the lathe bed) by which ``q0`` may exceed the joint limits."""
+
+MAX_COORDINATE = 1000.0
+"""Metres: every coordinate of a position (and of ``motion.axis``) is within +-1 km."""
+MIN_LENGTH = 1e-4
+"""Metres: the smallest obstacle size (radius, half-extent, cylinder length)."""
+MAX_LENGTH = 1000.0
+"""Metres: the largest obstacle size (radius, half-extent, oscillation amplitude, scaled mesh extent)."""
+MIN_CYLINDER_LENGTH = MIN_LENGTH
+"""Metres: a cylinder's ``p0`` and ``p1`` must be at least this far apart."""
+MIN_ROBOT_RADIUS = 0.01
+"""Metres: the smallest ``serpentine_radius`` / ``arm_radius``."""
+MAX_ROBOT_RADIUS = 0.5
+"""Metres: the largest ``serpentine_radius`` / ``arm_radius``."""
+MIN_TOLERANCE = 1e-4
+"""Metres: the smallest goal ``tolerance``."""
+MAX_TOLERANCE = 1.0
+"""Metres: the largest goal ``tolerance``."""
+MAX_ANGLE = 2.0 * math.pi
+"""Radians: the largest ``|rpy|`` value and ``|motion.phase|`` (plus 1e-9 for rounding)."""
+MIN_MESH_SCALE = 1e-4
+"""The smallest mesh ``scale``."""
+MAX_MESH_SCALE = 1e4
+"""The largest mesh ``scale``."""
+MAX_TIME_LIMIT = 3600.0
+"""Seconds: the largest ``time_limit`` (one simulated hour, about 10 minutes of wall clock)."""
+MAX_MOTION_TIME = 1e6
+"""Seconds: the largest ``motion.start``, ``motion.stop`` and ``motion.period``."""
+MAX_OBSTACLE_SPEED = 0.5
+"""m/s: the fastest a moving obstacle may be (linear speed, peak speed of an oscillation)."""
+MAX_OBSTACLES = 10_000
+"""The most obstacles a world may have."""
+MAX_GOALS = 1_000
+"""The most goals a world may have."""
+MAX_EXTRA_DEPTH = 64
+"""How deeply ``extra`` may nest arrays and objects."""
+MAX_WORLD_BYTES = 64 * 1024 * 1024
+"""Bytes: the largest world file :func:`load_world` reads by default (64 MiB)."""
 
 FloatArray = NDArray[np.float64]
 
@@ -136,8 +220,10 @@ def _describe(v: Any) -> str:
         return "true" if v else "false"
     if isinstance(v, (float, np.floating)) and not math.isfinite(v):
         return f"{v!r} (a number too large for a float, or a non-finite value)"
-    if isinstance(v, (int, float, np.integer, np.floating)):
-        return repr(float(v)) if isinstance(v, (float, np.floating)) else str(int(v))
+    if isinstance(v, (float, np.floating)):
+        return repr(float(v))
+    if isinstance(v, (int, np.integer)):
+        return str(int(v)) if abs(v) < 10**100 else f"an integer of about {len(hex(int(v))) * 1.2:.0f} digits"
     if isinstance(v, str):
         s = json.dumps(v)
         return s if len(s) <= 60 else s[:57] + '..."'
@@ -151,11 +237,14 @@ def _describe(v: Any) -> str:
 
 
 class _Ctx:
-    """Where validation is happening: the file (for messages) and the folder meshes are relative to."""
+    """Where validation is happening: the file (for messages), the folder meshes are relative to, and
+    whether mesh paths may leave that folder."""
 
-    def __init__(self, file: str | os.PathLike[str] | None, base_dir: Path | None):
+    def __init__(self, file: str | os.PathLike[str] | None, base_dir: Path | None, *,
+                 allow_mesh_outside: bool = False):
         self.file = file
         self.base_dir = base_dir
+        self.allow_mesh_outside = allow_mesh_outside
 
     def error(self, path: str, detail: str) -> WorldError:
         return WorldError(detail, file=self.file, json_path=path)
@@ -175,9 +264,20 @@ def _is_number(v: Any) -> bool:
     return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
 
 
-def _number(ctx: _Ctx, path: str, v: Any, *, positive: bool = False) -> float:
-    """A finite float (and > 0 if ``positive``)."""
-    what = "a positive number" if positive else "a finite number"
+def _expected(positive: bool, lo: float | None, hi: float | None, unit: str) -> str:
+    """``a positive number``, ``a number in [-1000, 1000] m``, ``a positive number in (0, 3600] s``..."""
+    if lo is None and hi is None:
+        return "a positive number" if positive else "a finite number"
+    left = "(0" if lo is None else f"[{lo:g}"
+    right = "inf)" if hi is None else f"{hi:g}]"
+    return f"a {'positive' if positive else 'finite'} number in {left}, {right}{unit}"
+
+
+def _number(ctx: _Ctx, path: str, v: Any, *, positive: bool = False, lo: float | None = None,
+            hi: float | None = None, unit: str = "") -> float:
+    """A finite float (and > 0 if ``positive``, and within [``lo``, ``hi``] where given; ``unit`` such as
+    ``" m"`` is only used in the message)."""
+    what = _expected(positive, lo, hi, unit)
     if not _is_number(v):
         raise ctx.error(path, f"expected {what}, got {_describe(v)}")
     try:
@@ -186,13 +286,13 @@ def _number(ctx: _Ctx, path: str, v: Any, *, positive: bool = False) -> float:
         x = math.inf
     if not math.isfinite(x):
         raise ctx.error(path, f"expected {what}, got {_describe(v)}")
-    if positive and not x > 0.0:
+    if (positive and not x > 0.0) or (lo is not None and x < lo) or (hi is not None and x > hi):
         raise ctx.error(path, f"expected {what}, got {_describe(v)}")
     return x
 
 
-def _vector(ctx: _Ctx, path: str, v: Any, n: int, *, positive: bool = False) -> FloatArray:
-    """A read-only float64 array of ``n`` finite numbers."""
+def _vector(ctx: _Ctx, path: str, v: Any, n: int, **bounds: Any) -> FloatArray:
+    """A read-only float64 array of ``n`` finite numbers (each checked by :func:`_number` with ``bounds``)."""
     if isinstance(v, np.ndarray):
         if v.ndim != 1:
             raise ctx.error(path, f"expected an array of {n} numbers, got {_describe(v)}")
@@ -201,9 +301,48 @@ def _vector(ctx: _Ctx, path: str, v: Any, n: int, *, positive: bool = False) -> 
         raise ctx.error(path, f"expected an array of {n} numbers, got {_describe(v)}")
     if len(v) != n:
         raise ctx.error(path, f"expected an array of {n} numbers, got {_describe(v)}")
-    out = np.array([_number(ctx, f"{path}[{i}]", x, positive=positive) for i, x in enumerate(v)])
+    out = np.array([_number(ctx, f"{path}[{i}]", x, **bounds) for i, x in enumerate(v)], dtype=np.float64)
     out.setflags(write=False)
     return out
+
+
+_ANGLE_SLACK = 1e-9
+
+
+def _coords(ctx: _Ctx, path: str, v: Any) -> FloatArray:
+    """A position (m): 3 numbers within +-:data:`MAX_COORDINATE`."""
+    return _vector(ctx, path, v, 3, lo=-MAX_COORDINATE, hi=MAX_COORDINATE, unit=" m")
+
+
+def _angles(ctx: _Ctx, path: str, v: Any) -> FloatArray:
+    """Roll, pitch, yaw (rad): 3 numbers within +-:data:`MAX_ANGLE`."""
+    return _vector(ctx, path, v, 3, lo=-MAX_ANGLE - _ANGLE_SLACK, hi=MAX_ANGLE + _ANGLE_SLACK, unit=" rad")
+
+
+def _size(ctx: _Ctx, path: str, v: Any) -> float:
+    """An obstacle size (m) in [:data:`MIN_LENGTH`, :data:`MAX_LENGTH`]."""
+    return _number(ctx, path, v, positive=True, lo=MIN_LENGTH, hi=MAX_LENGTH, unit=" m")
+
+
+def _sizes(ctx: _Ctx, path: str, v: Any) -> FloatArray:
+    """Three obstacle sizes (m), e.g. half-extents."""
+    return _vector(ctx, path, v, 3, positive=True, lo=MIN_LENGTH, hi=MAX_LENGTH, unit=" m")
+
+
+def _robot_radius(ctx: _Ctx, path: str, v: Any) -> float:
+    return _number(ctx, path, v, positive=True, lo=MIN_ROBOT_RADIUS, hi=MAX_ROBOT_RADIUS, unit=" m")
+
+
+def _tolerance(ctx: _Ctx, path: str, v: Any) -> float:
+    return _number(ctx, path, v, positive=True, lo=MIN_TOLERANCE, hi=MAX_TOLERANCE, unit=" m")
+
+
+def _time_limit(ctx: _Ctx, path: str, v: Any) -> float:
+    return _number(ctx, path, v, positive=True, hi=MAX_TIME_LIMIT, unit=" s")
+
+
+def _scale(ctx: _Ctx, path: str, v: Any) -> float:
+    return _number(ctx, path, v, positive=True, lo=MIN_MESH_SCALE, hi=MAX_MESH_SCALE)
 
 
 def _string(ctx: _Ctx, path: str, v: Any, *, nonempty: bool = False) -> str:
@@ -231,8 +370,9 @@ def _object(ctx: _Ctx, path: str, v: Any, required: tuple[str, ...], optional: t
     return v
 
 
-def _json_value(ctx: _Ctx, path: str, v: Any) -> Any:
-    """A deep copy of ``v`` as plain JSON (dict/list/str/finite number/bool/null); errors name the path."""
+def _json_value(ctx: _Ctx, path: str, v: Any, depth: int = 0) -> Any:
+    """A deep copy of ``v`` as plain JSON (dict/list/str/finite number/bool/null), nested at most
+    :data:`MAX_EXTRA_DEPTH` levels; errors name the path."""
     if v is None or isinstance(v, (bool, str)):
         return v
     if isinstance(v, _NonFinite):
@@ -242,6 +382,8 @@ def _json_value(ctx: _Ctx, path: str, v: Any) -> Any:
     if _is_number(v):
         x = _number(ctx, path, v)
         return int(v) if isinstance(v, (int, np.integer)) else x
+    if isinstance(v, (dict, list, tuple)) and depth >= MAX_EXTRA_DEPTH:
+        raise ctx.error(path, f"nested too deeply (at most {MAX_EXTRA_DEPTH} levels of arrays and objects)")
     if isinstance(v, dict):
         dups = getattr(v, "duplicates", ())
         if dups:
@@ -250,10 +392,10 @@ def _json_value(ctx: _Ctx, path: str, v: Any) -> Any:
         for k, x in v.items():
             if not isinstance(k, str):
                 raise ctx.error(path, f"object keys must be strings, got {_describe(k)}")
-            out[k] = _json_value(ctx, _join(path, k), x)
+            out[k] = _json_value(ctx, _join(path, k), x, depth + 1)
         return out
     if isinstance(v, (list, tuple)):
-        return [_json_value(ctx, f"{path}[{i}]", x) for i, x in enumerate(v)]
+        return [_json_value(ctx, f"{path}[{i}]", x, depth + 1) for i, x in enumerate(v)]
     raise ctx.error(path, f"expected a JSON value (object, array, string, finite number, bool, null), "
                           f"got {_describe(v)}")
 
@@ -320,8 +462,8 @@ class Base(_ValueEq):
     rpy: FloatArray = field(default_factory=lambda: np.zeros(3))
 
     def __post_init__(self) -> None:
-        _set(self, "position", _vector(_CODE, "Base.position", self.position, 3))
-        _set(self, "rpy", _vector(_CODE, "Base.rpy", self.rpy, 3))
+        _set(self, "position", _coords(_CODE, "Base.position", self.position))
+        _set(self, "rpy", _angles(_CODE, "Base.rpy", self.rpy))
 
     def transform(self) -> FloatArray:
         """(4, 4) homogeneous transform world <- DH frame 0 (metres)."""
@@ -351,9 +493,8 @@ class RobotSpec(_ValueEq):
         if not isinstance(self.base, Base):
             raise _CODE.error("RobotSpec.base", f"expected a Base, got {_describe(self.base)}")
         _set(self, "q0", _q0(_CODE, "RobotSpec.q0", self.q0))
-        _set(self, "serpentine_radius",
-             _number(_CODE, "RobotSpec.serpentine_radius", self.serpentine_radius, positive=True))
-        _set(self, "arm_radius", _number(_CODE, "RobotSpec.arm_radius", self.arm_radius, positive=True))
+        _set(self, "serpentine_radius", _robot_radius(_CODE, "RobotSpec.serpentine_radius", self.serpentine_radius))
+        _set(self, "arm_radius", _robot_radius(_CODE, "RobotSpec.arm_radius", self.arm_radius))
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -376,19 +517,128 @@ def _q0(ctx: _Ctx, path: str, v: Any) -> FloatArray:
 
 
 @dataclass(frozen=True, eq=False)
+class LinearMotion(_ValueEq):
+    """Translation at constant ``velocity`` (m/s) from time ``start`` to ``stop`` (s; ``inf``: never stops).
+
+    d(t) = velocity * clamp(t - start, 0, stop - start), t the simulated time since the trial's start.
+    """
+
+    velocity: FloatArray
+    start: float = 0.0
+    stop: float = math.inf
+    type: ClassVar[str] = "linear"
+
+    def __post_init__(self) -> None:
+        _set(self, "velocity", _velocity(_CODE, "LinearMotion.velocity", self.velocity))
+        _set(self, "start", _number(_CODE, "LinearMotion.start", self.start, lo=0.0, hi=MAX_MOTION_TIME, unit=" s"))
+        if not (isinstance(self.stop, (int, float)) and self.stop == math.inf):
+            _set(self, "stop", _number(_CODE, "LinearMotion.stop", self.stop, lo=self.start, hi=MAX_MOTION_TIME,
+                                       unit=" s (at least start; omit it for no stop)"))
+        else:
+            _set(self, "stop", math.inf)
+
+    def displacement(self, t: float) -> FloatArray:
+        """Translation (m) at simulated time ``t`` (s)."""
+        return self.velocity * min(max(float(t) - self.start, 0.0), self.stop - self.start)
+
+    def to_dict(self) -> dict[str, Any]:
+        d: dict[str, Any] = {"type": self.type, "velocity": self.velocity.tolist(), "start": self.start}
+        if math.isfinite(self.stop):
+            d["stop"] = self.stop
+        return d
+
+
+@dataclass(frozen=True, eq=False)
+class OscillateMotion(_ValueEq):
+    """Oscillation along ``axis`` (any length, not zero): d(t) = amplitude (m) * unit(axis) *
+    sin(2 pi t / period + phase), ``period`` in s, ``phase`` in rad."""
+
+    axis: FloatArray
+    amplitude: float
+    period: float
+    phase: float = 0.0
+    type: ClassVar[str] = "oscillate"
+
+    def __post_init__(self) -> None:
+        _set(self, "axis", _direction(_CODE, "OscillateMotion.axis", self.axis))
+        _set(self, "amplitude", _number(_CODE, "OscillateMotion.amplitude", self.amplitude, lo=0.0, hi=MAX_LENGTH,
+                                        unit=" m"))
+        _set(self, "period", _number(_CODE, "OscillateMotion.period", self.period, positive=True,
+                                     hi=MAX_MOTION_TIME, unit=" s"))
+        _set(self, "phase", _number(_CODE, "OscillateMotion.phase", self.phase, lo=-MAX_ANGLE - _ANGLE_SLACK,
+                                    hi=MAX_ANGLE + _ANGLE_SLACK, unit=" rad"))
+        _check_speed(_CODE, "OscillateMotion.period", self.peak_speed, "peak speed 2 pi amplitude / period")
+
+    @property
+    def peak_speed(self) -> float:
+        """Largest speed (m/s) over a period: 2 pi amplitude / period."""
+        return 2.0 * math.pi * self.amplitude / self.period
+
+    def displacement(self, t: float) -> FloatArray:
+        """Translation (m) at simulated time ``t`` (s)."""
+        u = self.axis / np.linalg.norm(self.axis)
+        return self.amplitude * u * math.sin(2.0 * math.pi * float(t) / self.period + self.phase)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"type": self.type, "axis": self.axis.tolist(), "amplitude": self.amplitude,
+                "period": self.period, "phase": self.phase}
+
+
+Motion = Union[LinearMotion, OscillateMotion]  # noqa: UP007 - a runtime alias usable in isinstance
+"""Any motion of an obstacle (interfaces.md section 2b)."""
+
+MOTION_TYPES: dict[str, type] = {"linear": LinearMotion, "oscillate": OscillateMotion}
+
+
+def _velocity(ctx: _Ctx, path: str, v: Any) -> FloatArray:
+    """A velocity (m/s) of at most :data:`MAX_OBSTACLE_SPEED`."""
+    vel = _vector(ctx, path, v, 3, lo=-MAX_OBSTACLE_SPEED, hi=MAX_OBSTACLE_SPEED, unit=" m/s")
+    _check_speed(ctx, path, float(np.linalg.norm(vel)), "|velocity|")
+    return vel
+
+
+def _direction(ctx: _Ctx, path: str, v: Any) -> FloatArray:
+    a = _coords(ctx, path, v)
+    if not float(np.linalg.norm(a)) >= 1e-9:
+        raise ctx.error(path, f"expected a non-zero direction, got {a.tolist()}")
+    return a
+
+
+def _check_speed(ctx: _Ctx, path: str, speed: float, what: str) -> None:
+    if not speed <= MAX_OBSTACLE_SPEED:
+        raise ctx.error(path, f"expected a moving obstacle at most {MAX_OBSTACLE_SPEED:g} m/s fast, got {what} "
+                              f"= {speed:.6g} m/s")
+
+
+def _check_motion(ctx: _Ctx, path: str, motion: Any) -> Motion | None:
+    if motion is not None and not isinstance(motion, (LinearMotion, OscillateMotion)):
+        raise ctx.error(path, f"expected a LinearMotion, an OscillateMotion or None, got {_describe(motion)}")
+    return motion
+
+
+def _with_motion(d: dict[str, Any], motion: Motion | None) -> dict[str, Any]:
+    if motion is not None:
+        d["motion"] = motion.to_dict()
+    return d
+
+
+@dataclass(frozen=True, eq=False)
 class Cylinder(_ValueEq):
-    """Flat-ended cylinder (as PyBullet's) with its axis from ``p0`` to ``p1`` (m); ``radius`` in m."""
+    """Flat-ended cylinder (as PyBullet's) with its axis from ``p0`` to ``p1`` (m); ``radius`` in m;
+    ``motion`` translates it over time (``None``: static)."""
 
     p0: FloatArray
     p1: FloatArray
     radius: float
+    motion: Motion | None = None
     type: ClassVar[str] = "cylinder"
 
     def __post_init__(self) -> None:
-        _set(self, "p0", _vector(_CODE, "Cylinder.p0", self.p0, 3))
-        _set(self, "p1", _vector(_CODE, "Cylinder.p1", self.p1, 3))
-        _set(self, "radius", _number(_CODE, "Cylinder.radius", self.radius, positive=True))
+        _set(self, "p0", _coords(_CODE, "Cylinder.p0", self.p0))
+        _set(self, "p1", _coords(_CODE, "Cylinder.p1", self.p1))
+        _set(self, "radius", _size(_CODE, "Cylinder.radius", self.radius))
         _check_length(_CODE, "Cylinder.p1", self.p0, self.p1)
+        _check_motion(_CODE, "Cylinder.motion", self.motion)
 
     @property
     def length(self) -> float:
@@ -396,7 +646,8 @@ class Cylinder(_ValueEq):
         return float(np.linalg.norm(self.p1 - self.p0))
 
     def to_dict(self, relative_to: Path | None = None) -> dict[str, Any]:
-        return {"type": self.type, "p0": self.p0.tolist(), "p1": self.p1.tolist(), "radius": self.radius}
+        return _with_motion({"type": self.type, "p0": self.p0.tolist(), "p1": self.p1.tolist(),
+                             "radius": self.radius}, self.motion)
 
 
 def _check_length(ctx: _Ctx, path: str, p0: FloatArray, p1: FloatArray) -> None:
@@ -407,37 +658,43 @@ def _check_length(ctx: _Ctx, path: str, p0: FloatArray, p1: FloatArray) -> None:
 
 @dataclass(frozen=True, eq=False)
 class Box(_ValueEq):
-    """Box centred at ``center`` (m) with ``half_extents`` (m, each > 0) and orientation ``rpy`` (rad)."""
+    """Box centred at ``center`` (m) with ``half_extents`` (m) and orientation ``rpy`` (rad); ``motion``
+    translates it over time (``None``: static)."""
 
     center: FloatArray
     half_extents: FloatArray
     rpy: FloatArray = field(default_factory=lambda: np.zeros(3))
+    motion: Motion | None = None
     type: ClassVar[str] = "box"
 
     def __post_init__(self) -> None:
-        _set(self, "center", _vector(_CODE, "Box.center", self.center, 3))
-        _set(self, "half_extents", _vector(_CODE, "Box.half_extents", self.half_extents, 3, positive=True))
-        _set(self, "rpy", _vector(_CODE, "Box.rpy", self.rpy, 3))
+        _set(self, "center", _coords(_CODE, "Box.center", self.center))
+        _set(self, "half_extents", _sizes(_CODE, "Box.half_extents", self.half_extents))
+        _set(self, "rpy", _angles(_CODE, "Box.rpy", self.rpy))
+        _check_motion(_CODE, "Box.motion", self.motion)
 
     def to_dict(self, relative_to: Path | None = None) -> dict[str, Any]:
-        return {"type": self.type, "center": self.center.tolist(),
-                "half_extents": self.half_extents.tolist(), "rpy": self.rpy.tolist()}
+        return _with_motion({"type": self.type, "center": self.center.tolist(),
+                             "half_extents": self.half_extents.tolist(), "rpy": self.rpy.tolist()}, self.motion)
 
 
 @dataclass(frozen=True, eq=False)
 class Sphere(_ValueEq):
-    """Sphere at ``center`` (m) with ``radius`` (m)."""
+    """Sphere at ``center`` (m) with ``radius`` (m); ``motion`` translates it over time (``None``: static)."""
 
     center: FloatArray
     radius: float
+    motion: Motion | None = None
     type: ClassVar[str] = "sphere"
 
     def __post_init__(self) -> None:
-        _set(self, "center", _vector(_CODE, "Sphere.center", self.center, 3))
-        _set(self, "radius", _number(_CODE, "Sphere.radius", self.radius, positive=True))
+        _set(self, "center", _coords(_CODE, "Sphere.center", self.center))
+        _set(self, "radius", _size(_CODE, "Sphere.radius", self.radius))
+        _check_motion(_CODE, "Sphere.motion", self.motion)
 
     def to_dict(self, relative_to: Path | None = None) -> dict[str, Any]:
-        return {"type": self.type, "center": self.center.tolist(), "radius": self.radius}
+        return _with_motion({"type": self.type, "center": self.center.tolist(), "radius": self.radius},
+                            self.motion)
 
 
 @dataclass(frozen=True, eq=False)
@@ -458,18 +715,20 @@ class Mesh(_ValueEq):
         if not isinstance(self.path, (str, os.PathLike)):
             raise _CODE.error("Mesh.path", f"expected a path, got {_describe(self.path)}")
         _set(self, "path", Path(self.path).expanduser().resolve())
-        _set(self, "position", _vector(_CODE, "Mesh.position", self.position, 3))
-        _set(self, "rpy", _vector(_CODE, "Mesh.rpy", self.rpy, 3))
-        _set(self, "scale", _number(_CODE, "Mesh.scale", self.scale, positive=True))
+        _set(self, "position", _coords(_CODE, "Mesh.position", self.position))
+        _set(self, "rpy", _angles(_CODE, "Mesh.rpy", self.rpy))
+        _set(self, "scale", _scale(_CODE, "Mesh.scale", self.scale))
 
     def triangles(self) -> tuple[FloatArray, NDArray[np.int32]]:
         """Vertices (V, 3) in metres, already multiplied by ``scale``, in the mesh's own frame (before
         ``position``/``rpy``), and faces (F, 3) of vertex indices.  Read-only arrays.
 
         Raises:
-            WorldError: the file is missing, unreadable by trimesh, or has no triangles.
+            WorldError: the file is missing, unreadable by trimesh, or has no triangles; or the scaled mesh
+                reaches farther than :data:`MAX_LENGTH` from its origin.
         """
         v, f = _mesh_triangles(_CODE, "Mesh.path", self.path)
+        _check_mesh_extent(_CODE, "Mesh.scale", v, self.scale)
         if self.scale != 1.0:
             v = v * self.scale
             v.setflags(write=False)
@@ -478,6 +737,13 @@ class Mesh(_ValueEq):
     def to_dict(self, relative_to: Path | None = None) -> dict[str, Any]:
         return {"type": self.type, "path": _mesh_path_str(self.path, relative_to),
                 "position": self.position.tolist(), "rpy": self.rpy.tolist(), "scale": self.scale}
+
+
+def _check_mesh_extent(ctx: _Ctx, path: str, vertices: FloatArray, scale: float) -> None:
+    reach = float(np.abs(vertices).max()) * scale
+    if not reach <= MAX_LENGTH:
+        raise ctx.error(path, f"expected a scale that keeps the mesh within {MAX_LENGTH:g} m of its origin, "
+                              f"got {scale:g} (a vertex {reach:.6g} m away)")
 
 
 def _mesh_path_str(path: Path, relative_to: Path | None) -> str:
@@ -535,8 +801,8 @@ class Goal(_ValueEq):
     tolerance: float = DEFAULT_TOLERANCE
 
     def __post_init__(self) -> None:
-        _set(self, "position", _vector(_CODE, "Goal.position", self.position, 3))
-        _set(self, "tolerance", _number(_CODE, "Goal.tolerance", self.tolerance, positive=True))
+        _set(self, "position", _coords(_CODE, "Goal.position", self.position))
+        _set(self, "tolerance", _tolerance(_CODE, "Goal.tolerance", self.tolerance))
 
     def to_dict(self) -> dict[str, Any]:
         return {"position": self.position.tolist(), "tolerance": self.tolerance}
@@ -544,7 +810,8 @@ class Goal(_ValueEq):
 
 @dataclass(frozen=True, eq=False)
 class World(_ValueEq):
-    """One world: robot placement, static obstacles, tip goals (reached in order) and a time limit (s).
+    """One world: robot placement, obstacles (static or moving), tip goals (reached in order) and a time
+    limit (s).
 
     ``source`` is the file it was loaded from (absolute), if any; it does not take part in equality.
     """
@@ -558,6 +825,8 @@ class World(_ValueEq):
     family: str | None = None
     extra: dict[str, Any] = field(default_factory=dict)
     source: Path | None = None
+    retract: bool = False
+    """After the last goal, back out along the path until the tip is within 0.02 m of its start."""
 
     _ignore: ClassVar[tuple[str, ...]] = ("source",)
 
@@ -567,6 +836,7 @@ class World(_ValueEq):
         if not isinstance(self.robot, RobotSpec):
             raise c.error("World.robot", f"expected a RobotSpec, got {_describe(self.robot)}")
         obstacles = tuple(self.obstacles)
+        _check_count(c, "World.obstacles", len(obstacles), MAX_OBSTACLES, "obstacles")
         for i, o in enumerate(obstacles):
             if not isinstance(o, (Cylinder, Box, Sphere, Mesh)):
                 raise c.error(f"World.obstacles[{i}]", f"expected a Cylinder, Box, Sphere or Mesh, "
@@ -574,18 +844,21 @@ class World(_ValueEq):
         goals = tuple(self.goals)
         if not goals:
             raise c.error("World.goals", "expected at least one goal, got none")
+        _check_count(c, "World.goals", len(goals), MAX_GOALS, "goals")
         for i, g in enumerate(goals):
             if not isinstance(g, Goal):
                 raise c.error(f"World.goals[{i}]", f"expected a Goal, got {_describe(g)}")
         _set(self, "obstacles", obstacles)
         _set(self, "goals", goals)
-        _set(self, "time_limit", _number(c, "World.time_limit", self.time_limit, positive=True))
+        _set(self, "time_limit", _time_limit(c, "World.time_limit", self.time_limit))
         _string(c, "World.description", self.description)
         if self.family is not None:
             _string(c, "World.family", self.family, nonempty=True)
         if not isinstance(self.extra, dict):
             raise c.error("World.extra", f"expected a dict, got {_describe(self.extra)}")
         _set(self, "extra", _json_value(c, "World.extra", self.extra))
+        if not isinstance(self.retract, bool):
+            raise c.error("World.retract", f"expected true or false, got {_describe(self.retract)}")
         if self.source is not None:
             _set(self, "source", Path(self.source).resolve())
 
@@ -605,6 +878,8 @@ class World(_ValueEq):
         d["obstacles"] = [o.to_dict(rel) for o in self.obstacles]
         d["goals"] = [g.to_dict() for g in self.goals]
         d["time_limit"] = self.time_limit
+        if self.retract:
+            d["retract"] = True
         if self.extra:
             d["extra"] = copy.deepcopy(self.extra)
         return d
@@ -618,10 +893,15 @@ class World(_ValueEq):
 # --------------------------------------------------------------------------- parsing
 
 
+def _check_count(ctx: _Ctx, path: str, n: int, most: int, what: str) -> None:
+    if n > most:
+        raise ctx.error(path, f"expected at most {most} {what}, got {n}")
+
+
 def _parse_base(ctx: _Ctx, path: str, v: Any) -> Base:
     o = _object(ctx, path, v, (), ("position", "rpy"))
-    pos = _vector(ctx, _join(path, "position"), o["position"], 3) if "position" in o else np.zeros(3)
-    rpy = _vector(ctx, _join(path, "rpy"), o["rpy"], 3) if "rpy" in o else np.zeros(3)
+    pos = _coords(ctx, _join(path, "position"), o["position"]) if "position" in o else np.zeros(3)
+    rpy = _angles(ctx, _join(path, "rpy"), o["rpy"]) if "rpy" in o else np.zeros(3)
     return Base(position=pos, rpy=rpy)
 
 
@@ -629,11 +909,61 @@ def _parse_robot(ctx: _Ctx, path: str, v: Any) -> RobotSpec:
     o = _object(ctx, path, v, (), ("base", "q0", "serpentine_radius", "arm_radius"))
     base = _parse_base(ctx, _join(path, "base"), o["base"]) if "base" in o else Base()
     q0 = _q0(ctx, _join(path, "q0"), o["q0"]) if "q0" in o else jpl.Q_DEFAULT.copy()
-    sr = (_number(ctx, _join(path, "serpentine_radius"), o["serpentine_radius"], positive=True)
+    sr = (_robot_radius(ctx, _join(path, "serpentine_radius"), o["serpentine_radius"])
           if "serpentine_radius" in o else jpl.SERPENTINE_RADIUS)
-    ar = (_number(ctx, _join(path, "arm_radius"), o["arm_radius"], positive=True)
-          if "arm_radius" in o else jpl.ARM_RADIUS)
+    ar = _robot_radius(ctx, _join(path, "arm_radius"), o["arm_radius"]) if "arm_radius" in o else jpl.ARM_RADIUS
     return RobotSpec(base=base, q0=q0, serpentine_radius=sr, arm_radius=ar)
+
+
+def _parse_motion(ctx: _Ctx, path: str, v: Any) -> Motion:
+    if not isinstance(v, dict):
+        raise ctx.error(path, f"expected a motion object, got {_describe(v)}")
+    if "type" not in v:
+        raise ctx.error(_join(path, "type"), f"missing required key (one of: {', '.join(MOTION_TYPES)})")
+    kind = v["type"]
+    if not isinstance(kind, str) or kind not in MOTION_TYPES:
+        names = ", ".join(map(json.dumps, MOTION_TYPES))
+        raise ctx.error(_join(path, "type"), f"expected one of {names}, got {_describe(kind)}")
+    times = {"lo": 0.0, "hi": MAX_MOTION_TIME, "unit": " s"}
+    if kind == "linear":
+        _object(ctx, path, v, ("type", "velocity"), ("start", "stop"))
+        velocity = _velocity(ctx, _join(path, "velocity"), v["velocity"])
+        start = _number(ctx, _join(path, "start"), v["start"], **times) if "start" in v else 0.0
+        stop = math.inf
+        if "stop" in v:
+            stop = _number(ctx, _join(path, "stop"), v["stop"], lo=start, hi=MAX_MOTION_TIME,
+                           unit=" s (at least start; omit stop for a motion that never stops)")
+        return LinearMotion(velocity=velocity, start=start, stop=stop)
+    _object(ctx, path, v, ("type", "axis", "amplitude", "period"), ("phase",))
+    axis = _direction(ctx, _join(path, "axis"), v["axis"])
+    amplitude = _number(ctx, _join(path, "amplitude"), v["amplitude"], lo=0.0, hi=MAX_LENGTH, unit=" m")
+    period = _number(ctx, _join(path, "period"), v["period"], positive=True, hi=MAX_MOTION_TIME, unit=" s")
+    phase = 0.0
+    if "phase" in v:
+        phase = _number(ctx, _join(path, "phase"), v["phase"], lo=-MAX_ANGLE - _ANGLE_SLACK,
+                        hi=MAX_ANGLE + _ANGLE_SLACK, unit=" rad")
+    _check_speed(ctx, _join(path, "period"), 2.0 * math.pi * amplitude / period,
+                 "peak speed 2 pi amplitude / period")
+    return OscillateMotion(axis=axis, amplitude=amplitude, period=period, phase=phase)
+
+
+def _mesh_file(ctx: _Ctx, path: str, p: str) -> Path:
+    """The resolved mesh file named by ``p``, refused if it leaves the world file's folder tree (unless
+    ``ctx.allow_mesh_outside``, or the data has no file)."""
+    file = Path(p).expanduser()
+    restrict = ctx.base_dir is not None and ctx.file is not None and not ctx.allow_mesh_outside
+    if restrict and file.is_absolute():
+        raise ctx.error(path, f"expected a path relative to the world file's folder, got the absolute path "
+                              f"{json.dumps(p)} (to use meshes outside it, pass --allow-mesh-outside / "
+                              f"allow_mesh_outside=True)")
+    if not file.is_absolute():
+        file = (ctx.base_dir or Path.cwd()) / file
+    file = file.resolve()
+    if restrict and not file.is_relative_to(ctx.base_dir):
+        raise ctx.error(path, f"expected a mesh inside the world file's folder {ctx.base_dir}, but "
+                              f"{json.dumps(p)} leads to {file} (to use meshes outside it, pass "
+                              f"--allow-mesh-outside / allow_mesh_outside=True)")
+    return file
 
 
 def _parse_obstacle(ctx: _Ctx, path: str, v: Any) -> Obstacle:
@@ -646,70 +976,71 @@ def _parse_obstacle(ctx: _Ctx, path: str, v: Any) -> Obstacle:
         names = ", ".join(map(json.dumps, OBSTACLE_TYPES))
         raise ctx.error(_join(path, "type"), f"expected one of {names}, got {_describe(kind)}")
 
-    def vec(key: str, positive: bool = False, default: FloatArray | None = None) -> FloatArray:
-        if key not in v and default is not None:
-            return default
-        return _vector(ctx, _join(path, key), v[key], 3, positive=positive)
-
-    def num(key: str, positive: bool = True, default: float | None = None) -> float:
-        if key not in v and default is not None:
-            return default
-        return _number(ctx, _join(path, key), v[key], positive=positive)
+    def motion() -> Motion | None:
+        return _parse_motion(ctx, _join(path, "motion"), v["motion"]) if "motion" in v else None
 
     if kind == "cylinder":
-        _object(ctx, path, v, ("type", "p0", "p1", "radius"), ())
-        p0, p1 = vec("p0"), vec("p1")
+        _object(ctx, path, v, ("type", "p0", "p1", "radius"), ("motion",))
+        p0, p1 = _coords(ctx, _join(path, "p0"), v["p0"]), _coords(ctx, _join(path, "p1"), v["p1"])
         _check_length(ctx, _join(path, "p1"), p0, p1)
-        return Cylinder(p0=p0, p1=p1, radius=num("radius"))
+        return Cylinder(p0=p0, p1=p1, radius=_size(ctx, _join(path, "radius"), v["radius"]), motion=motion())
     if kind == "box":
-        _object(ctx, path, v, ("type", "center", "half_extents"), ("rpy",))
-        return Box(center=vec("center"), half_extents=vec("half_extents", positive=True),
-                   rpy=vec("rpy", default=np.zeros(3)))
+        _object(ctx, path, v, ("type", "center", "half_extents"), ("rpy", "motion"))
+        rpy = _angles(ctx, _join(path, "rpy"), v["rpy"]) if "rpy" in v else np.zeros(3)
+        return Box(center=_coords(ctx, _join(path, "center"), v["center"]),
+                   half_extents=_sizes(ctx, _join(path, "half_extents"), v["half_extents"]), rpy=rpy,
+                   motion=motion())
     if kind == "sphere":
-        _object(ctx, path, v, ("type", "center", "radius"), ())
-        return Sphere(center=vec("center"), radius=num("radius"))
+        _object(ctx, path, v, ("type", "center", "radius"), ("motion",))
+        return Sphere(center=_coords(ctx, _join(path, "center"), v["center"]),
+                      radius=_size(ctx, _join(path, "radius"), v["radius"]), motion=motion())
     # mesh
+    if "motion" in v:
+        raise ctx.error(_join(path, "motion"), "a mesh cannot move: motion is allowed on a cylinder, box or "
+                                               "sphere only")
     _object(ctx, path, v, ("type", "path"), ("position", "rpy", "scale"))
-    p = _string(ctx, _join(path, "path"), v["path"], nonempty=True)
-    file = Path(p).expanduser()
-    if not file.is_absolute():
-        file = (ctx.base_dir or Path.cwd()) / file
-    file = file.resolve()
-    _mesh_triangles(ctx, _join(path, "path"), file)
-    return Mesh(path=file, position=vec("position", default=np.zeros(3)), rpy=vec("rpy", default=np.zeros(3)),
-                scale=num("scale", default=1.0))
+    file = _mesh_file(ctx, _join(path, "path"), _string(ctx, _join(path, "path"), v["path"], nonempty=True))
+    position = _coords(ctx, _join(path, "position"), v["position"]) if "position" in v else np.zeros(3)
+    rpy = _angles(ctx, _join(path, "rpy"), v["rpy"]) if "rpy" in v else np.zeros(3)
+    scale = _scale(ctx, _join(path, "scale"), v["scale"]) if "scale" in v else 1.0
+    vertices, _ = _mesh_triangles(ctx, _join(path, "path"), file)
+    _check_mesh_extent(ctx, _join(path, "scale"), vertices, scale)
+    return Mesh(path=file, position=position, rpy=rpy, scale=scale)
 
 
 def _parse_goal(ctx: _Ctx, path: str, v: Any) -> Goal:
     o = _object(ctx, path, v, ("position",), ("tolerance",))
-    tol = (_number(ctx, _join(path, "tolerance"), o["tolerance"], positive=True)
-           if "tolerance" in o else DEFAULT_TOLERANCE)
-    return Goal(position=_vector(ctx, _join(path, "position"), o["position"], 3), tolerance=tol)
+    tol = _tolerance(ctx, _join(path, "tolerance"), o["tolerance"]) if "tolerance" in o else DEFAULT_TOLERANCE
+    return Goal(position=_coords(ctx, _join(path, "position"), o["position"]), tolerance=tol)
 
 
-def _array(ctx: _Ctx, path: str, v: Any) -> list | tuple:
+def _array(ctx: _Ctx, path: str, v: Any, most: int, what: str) -> list | tuple:
     if not isinstance(v, (list, tuple)):
         raise ctx.error(path, f"expected an array, got {_describe(v)}")
+    _check_count(ctx, path, len(v), most, what)
     return v
 
 
 _TOP_REQUIRED = ("format", "name", "robot", "obstacles", "goals")
-_TOP_OPTIONAL = ("description", "time_limit", "family", "extra")
+_TOP_OPTIONAL = ("description", "time_limit", "family", "retract", "extra")
 
 
-def world_from_dict(data: Any, source: str | os.PathLike[str] | None = None) -> World:
+def world_from_dict(data: Any, source: str | os.PathLike[str] | None = None, *,
+                    allow_mesh_outside: bool = False) -> World:
     """Validate parsed ``navstack-world/1`` data and build a :class:`World`.
 
     Args:
         data: the parsed JSON document (a dict).
         source: the file it came from: named in error messages, the folder relative mesh paths are
             resolved against (the current directory when ``None``), and stored as ``World.source``.
+        allow_mesh_outside: accept mesh paths that are absolute or leave ``source``'s folder tree (only
+            checked when ``source`` is given).
 
     Raises:
         WorldError: the first invalid field, with its JSON path.
     """
     base_dir = Path(source).resolve().parent if source is not None else None
-    ctx = _Ctx(source, base_dir)
+    ctx = _Ctx(source, base_dir, allow_mesh_outside=allow_mesh_outside)
     if not isinstance(data, dict):
         raise ctx.error("", f"expected a JSON object at the top level, got {_describe(data)}")
     if "format" not in data:
@@ -724,46 +1055,89 @@ def world_from_dict(data: Any, source: str | os.PathLike[str] | None = None) -> 
         family = _string(ctx, "family", d["family"], nonempty=True)
     robot = _parse_robot(ctx, "robot", d["robot"])
     obstacles = tuple(_parse_obstacle(ctx, f"obstacles[{i}]", o)
-                      for i, o in enumerate(_array(ctx, "obstacles", d["obstacles"])))
-    goals_raw = _array(ctx, "goals", d["goals"])
+                      for i, o in enumerate(_array(ctx, "obstacles", d["obstacles"], MAX_OBSTACLES, "obstacles")))
+    goals_raw = _array(ctx, "goals", d["goals"], MAX_GOALS, "goals")
     if len(goals_raw) == 0:
         raise ctx.error("goals", "expected at least one goal, got an empty array")
     goals = tuple(_parse_goal(ctx, f"goals[{i}]", g) for i, g in enumerate(goals_raw))
-    time_limit = (_number(ctx, "time_limit", d["time_limit"], positive=True)
-                  if "time_limit" in d else DEFAULT_TIME_LIMIT)
+    time_limit = _time_limit(ctx, "time_limit", d["time_limit"]) if "time_limit" in d else DEFAULT_TIME_LIMIT
+    retract = d.get("retract", False)
+    if not isinstance(retract, bool):
+        raise ctx.error("retract", f"expected true or false, got {_describe(retract)}")
     extra: dict[str, Any] = {}
     if "extra" in d:
         if not isinstance(d["extra"], dict):
             raise ctx.error("extra", f"expected an object, got {_describe(d['extra'])}")
         extra = _json_value(ctx, "extra", d["extra"])
     return World(name=name, robot=robot, obstacles=obstacles, goals=goals, time_limit=time_limit,
-                 description=description, family=family, extra=extra,
+                 description=description, family=family, extra=extra, retract=retract,
                  source=None if source is None else Path(source).resolve())
 
 
-def load_world(path: str | os.PathLike[str]) -> World:
+def _read_text(ctx: _Ctx, path: str | os.PathLike[str], max_bytes: int) -> str:
+    """The UTF-8 text of a regular file of at most ``max_bytes`` bytes (checked before reading it)."""
+    try:
+        # O_NONBLOCK: opening a FIFO must not wait for a writer; fstat then refuses it
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
+    except OSError as e:
+        raise ctx.error("", f"cannot read the file: {e.strerror or e}") from e
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            raise ctx.error("", f"expected a regular file, got {_file_kind(st.st_mode)}")
+        if st.st_size > max_bytes:
+            raise ctx.error("", f"the file is {st.st_size / 2**20:.1f} MiB, more than the {max_bytes / 2**20:g} MiB "
+                                f"a world file may have (raise the limit with --max-world-mb / max_bytes)")
+        with os.fdopen(os.dup(fd), "rb") as f:
+            raw = f.read(max_bytes + 1)
+    except OSError as e:
+        raise ctx.error("", f"cannot read the file: {e.strerror or e}") from e
+    finally:
+        os.close(fd)
+    if len(raw) > max_bytes:  # it grew after fstat
+        raise ctx.error("", f"the file is larger than the {max_bytes / 2**20:g} MiB a world file may have")
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        raise ctx.error("", f"expected UTF-8 JSON text, cannot decode byte {e.start}: {e.reason}") from e
+
+
+def _file_kind(mode: int) -> str:
+    kinds = [(stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+             (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket")]
+    return next((name for test, name in kinds if test(mode)), "not a regular file")
+
+
+def load_world(path: str | os.PathLike[str], *, allow_mesh_outside: bool = False,
+               max_bytes: int = MAX_WORLD_BYTES) -> World:
     """Read, validate and return the world file at ``path`` (JSON, ``navstack-world/1``).
 
     Mesh files are loaded with trimesh here, so a world that loads can be simulated.
 
+    Args:
+        path: the world file; a regular file of at most ``max_bytes`` bytes.
+        allow_mesh_outside: accept mesh paths that are absolute or lead outside the world file's folder
+            tree (refused by default: a world file from someone else must not read files elsewhere).
+        max_bytes: the largest file accepted (default :data:`MAX_WORLD_BYTES`, 64 MiB), checked before
+            parsing.
+
     Raises:
-        WorldError: unreadable file, invalid JSON (with line/column), or the first invalid field (with
-            its JSON path); the message always names the file.
+        WorldError: unreadable file, not a regular file, too large, invalid JSON (with line/column), or the
+            first invalid field (with its JSON path); the message always names the file.
     """
     ctx = _Ctx(path, None)
-    try:
-        text = Path(path).read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError as e:
-        raise ctx.error("", f"expected UTF-8 JSON text, cannot decode byte {e.start}: {e.reason}") from e
-    except OSError as e:
-        raise ctx.error("", f"cannot read the file: {e.strerror or e}") from e
+    if isinstance(max_bytes, bool) or not isinstance(max_bytes, int) or max_bytes < 1:
+        raise ValueError(f"load_world: max_bytes must be a positive integer, got {max_bytes!r}")
+    text = _read_text(ctx, path, max_bytes)
     try:
         data = json.loads(text, parse_constant=_NonFinite, object_pairs_hook=_pairs_hook)
     except json.JSONDecodeError as e:
         raise ctx.error("", f"invalid JSON at line {e.lineno}, column {e.colno}: {e.msg}") from e
     except RecursionError as e:
         raise ctx.error("", "invalid JSON: nested too deeply") from e
-    return world_from_dict(data, source=path)
+    except ValueError as e:  # e.g. an integer of more than 4300 digits (sys.get_int_max_str_digits)
+        raise ctx.error("", f"invalid JSON: {e}") from e
+    return world_from_dict(data, source=path, allow_mesh_outside=allow_mesh_outside)
 
 
 def _dumps(obj: Any, indent: int = 0, width: int = 110) -> str:
@@ -803,13 +1177,20 @@ def save_world(world: World, path: str | os.PathLike[str]) -> None:
 
 __all__ = [
     "FORMAT",
+    "MAX_COORDINATE",
+    "MAX_TIME_LIMIT",
+    "MAX_WORLD_BYTES",
+    "MOTION_TYPES",
     "Base",
     "Box",
     "Cylinder",
     "Goal",
+    "LinearMotion",
     "Mesh",
+    "Motion",
     "OBSTACLE_TYPES",
     "Obstacle",
+    "OscillateMotion",
     "RobotSpec",
     "Sphere",
     "World",

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 
 import numpy as np
@@ -9,7 +10,9 @@ import pytest
 
 from navstack import jpl_serpentine
 from navstack.control import ControlConfig, ControlError, SlitherController, dls_rate
+from navstack.control.tasks import Task
 from navstack.jpl import ARM_JOINTS, Q_DEFAULT, SERPENTINE_JOINTS
+from navstack.retreat import Retreat
 
 CHAIN = jpl_serpentine()
 TIP0 = CHAIN.points_and_jacobians(Q_DEFAULT)[0][0].copy()
@@ -149,18 +152,78 @@ def _closed_loop(mode: str, v: float = 0.05, dt: float = 1 / 60) -> tuple[float,
     return dev, tip_err
 
 
+# Measured (this test, printed with -s; deterministic, no noise): slither_deviation_max 0.0078 mm (projected)
+# and 0.0079 mm (full), tip_error_max 0.425 mm (both; the lag of the damped tip rows in the bend at 0.05 m/s),
+# 315 mm for the tip-only body cutting the bend.  The bounds are 3x those figures: room for round-off, a
+# numba or BLAS update, a small retuning; a controller that slithers three times worse fails.
+DEV_MEASURED, TIP_MEASURED, DEV_NONE_MEASURED = 0.0079e-3, 0.425e-3, 0.315
+
+
 def test_kinematic_closed_loop_slithers_through_a_90_degree_turn():
     results = {mode: _closed_loop(mode) for mode in ("projected", "full", "none")}
     for mode, (dev, err) in results.items():
         print(f"{mode:>9}: slither_deviation_max = {dev * 1e3:8.4f} mm, tip_error_max = {err * 1e3:7.4f} mm")
     for mode in ("projected", "full"):
         dev, err = results[mode]
-        assert dev <= 1e-3, (mode, dev)
-        assert err <= 5e-3, (mode, err)
+        assert dev <= 3 * DEV_MEASURED, (mode, dev)
+        assert err <= 3 * TIP_MEASURED, (mode, err)
     dev_none, err_none = results["none"]
-    assert err_none <= 5e-3  # the baseline still tracks the tip ...
-    assert dev_none >= 0.05  # ... but its body cuts the corner
+    assert err_none <= 3 * TIP_MEASURED  # the baseline still tracks the tip ...
+    assert dev_none >= DEV_NONE_MEASURED / 3  # ... but its body cuts the corner
     assert dev_none >= 100 * max(results["projected"][0], results["full"][0])
+
+
+def test_kinematic_closed_loop_in_along_the_bend_and_out_again():
+    """Issue 10: in along the 90 deg bend of radius 0.3 m, then back out along the recorded path (a Retreat,
+    reverse commands) to the start.  Measured (printed with -s): deviation 0.0078 mm in, 0.0082 mm out;
+    |q - q0| 1.6e-6 rad at the end.  Bounds: the issue's 0.1 mm and 1e-3 rad."""
+    v, dt = 0.05, 1 / 60
+    ctl = SlitherController(CHAIN, ControlConfig(dt=dt), Q_DEFAULT)
+    dev_in = dev_out = 0.0
+    for k in range(int(np.ceil(S3 / (v * dt))) + 1):
+        s = min(k * v * dt, S3)
+        x_d, tangent = _turn(s)
+        q = ctl.step(x_d, v * tangent if s < S3 else np.zeros(3))
+        dev_in = max(dev_in, max(ctl.path.distance_to_path(p) for p in CHAIN.points_and_jacobians(q)[0][1:]))
+    inbound = copy.deepcopy(ctl.path)  # the path the way in: the way out must stay on it
+    retreat = Retreat(ctl.path, ctl.path.start_arc_length, speed=v, accel=0.1)
+    x_prev, reverse = x_d, False
+    while not retreat.done:
+        cmd = retreat.step(dt)
+        # as in the trial: equation (4) at x_d(t), the previous command, with the rate over [t, t + dt]
+        q = ctl.step(x_prev, cmd.velocity, reverse=reverse)
+        x_prev, reverse = cmd.position, cmd.reverse
+        dev_out = max(dev_out, max(inbound.distance_to_path(p) for p in CHAIN.points_and_jacobians(q)[0][1:]))
+    q = ctl.step(x_prev, np.zeros(3), reverse=True)
+    print(f"in {dev_in * 1e3:.4f} mm, out {dev_out * 1e3:.4f} mm, |q - q0| {np.abs(q - Q_DEFAULT).max():.2e} rad")
+    assert ctl.path.end_arc_length == pytest.approx(ctl.path.start_arc_length, abs=1e-9)
+    assert dev_in <= 1e-4 and dev_out <= 1e-4
+    assert np.abs(q - Q_DEFAULT).max() <= 1e-3
+    np.testing.assert_allclose(CHAIN.points_and_jacobians(q)[0][0], TIP0, atol=1e-4)
+
+
+def test_sigma_is_refreshed_every_sigma_every_steps_and_held_in_between():
+    """Issue 14: a damping whose singular value is never refreshed after the first step must fail here."""
+    v, dt = 0.05, 1 / 60
+    cfg = ControlConfig(dt=dt, sigma_every=5, sigma_eps=0.5)  # eps above sigma: lambda depends on sigma
+    ctl = SlitherController(CHAIN, cfg, Q_DEFAULT)
+    refreshed = []
+    for k in range(120):  # through the bend: the configuration, and sigma, change
+        s = 0.05 + k * v * dt
+        x_d, tangent = _turn(s)
+        q_before = ctl.theta_d
+        sigma_before = ctl.sigma_min
+        ctl.step(x_d, v * tangent)
+        if k % cfg.sigma_every == 0:
+            T = ctl.tasks(q_before)  # the rows this step was solved with
+            Jh = np.sqrt(T.w[:15, None]) * T.J[:15] / np.sqrt(ctl.wv)
+            assert ctl.sigma_min == pytest.approx(np.linalg.svd(Jh, compute_uv=False).min(), rel=1e-9), k
+            ratio = ctl.sigma_min / cfg.sigma_eps
+            assert ctl.lam2 == pytest.approx(cfg.lambda0**2 + cfg.lambda_max**2 * (1 - ratio**2), rel=1e-12)
+            refreshed.append(ctl.sigma_min)
+        else:
+            assert ctl.sigma_min == sigma_before  # held
+    assert len(refreshed) == 24 and len(set(refreshed)) == 24  # a fresh value at every refresh
 
 
 # ---------------------------------------------------------------- (4) task Jacobians by finite differences
@@ -276,3 +339,69 @@ def test_a_non_finite_rate_raises_and_holds_theta_d():
         ctl.step(TIP0 + 1e308 * EZ, np.zeros(3))  # finite, but K e overflows
     np.testing.assert_array_equal(ctl.theta_d, q)
     assert np.isfinite(ctl.theta_d).all()
+
+
+# ---------------------------------------------------------------- (6) the one-call fast path, reverse commands
+class Idle(Task):
+    """A task with one row of weight 0: changes nothing in equation (4), but routes the controller through
+    TaskSolver (task by task) instead of its one-call fast path."""
+
+    name = "idle"
+
+    @property
+    def size(self) -> int:
+        return 1
+
+    def row_names(self) -> tuple[str, ...]:
+        return ("idle.q1",)
+
+    def fill(self, kin, R, info, r0):
+        R[r0] = 0.0
+        info[:, r0] = (kin.q[0], kin.q[0], 0.0, 0.0, 0.0, -1.0)  # z, z_d, zdot_d, w = 0, k, dense
+
+
+@pytest.mark.parametrize("mode", ["projected", "full", "none"])
+def test_the_fast_path_is_the_task_by_task_solver(mode):
+    """Same theta_d, rates and damping, to the last bit, in and out along the bend (reverse commands too)."""
+    v, dt = 0.05, 1 / 60
+    cfg = ControlConfig(dt=dt, slither=mode, sigma_every=3)
+    fast = SlitherController(CHAIN, cfg, Q_DEFAULT)
+    slow = SlitherController(CHAIN, cfg, Q_DEFAULT, extra_tasks=[Idle(weight=0.0, gain=0.0)])
+    assert fast._fast is not None and slow._fast is None
+    for k in range(200):
+        x_d, tangent = _turn(k * v * dt)
+        np.testing.assert_array_equal(fast.step(x_d, v * tangent), slow.step(x_d, v * tangent))
+    retreat = Retreat(fast.path, fast.path.end_arc_length - 0.1, speed=v, accel=0.1)
+    while not retreat.done:
+        cmd = retreat.step(dt)
+        np.testing.assert_array_equal(fast.step(cmd.position, cmd.velocity, reverse=True),
+                                      slow.step(cmd.position, cmd.velocity, reverse=True))
+    np.testing.assert_array_equal(fast.thetadot_d, slow.thetadot_d)
+    np.testing.assert_array_equal(fast.rate_eq4, slow.rate_eq4)
+    assert fast.lam2 == slow.lam2 and fast.sigma_min == slow.sigma_min
+    np.testing.assert_array_equal(fast.path.points, slow.path.points)
+    np.testing.assert_array_equal(fast.desired_points, slow.desired_points)
+
+
+@pytest.mark.parametrize("fast", [True, False])
+def test_a_reverse_command_off_the_path_raises_and_changes_nothing(fast):
+    extra = [] if fast else [Idle(weight=0.0, gain=0.0)]
+    ctl = SlitherController(CHAIN, ControlConfig(), Q_DEFAULT, extra_tasks=extra)
+    for k in range(1, 100):
+        ctl.step(TIP0 + 0.0005 * k * EZ, 0.05 * EZ)
+    q, n_points, end, steps = ctl.theta_d, ctl.path.n_points, ctl.path.end_arc_length, ctl.steps
+    with pytest.raises(ValueError, match="retrace the path"):
+        ctl.step(TIP0 + 0.03 * EZ + 0.01 * EX, -0.05 * EZ, reverse=True)
+    with pytest.raises(ValueError, match="x_d must be finite"):
+        ctl.step([np.nan, 0.0, 1.0], np.zeros(3), reverse=True)
+    np.testing.assert_array_equal(ctl.theta_d, q)
+    assert (ctl.path.n_points, ctl.path.end_arc_length, ctl.steps) == (n_points, end, steps)
+    ctl.step(TIP0 + 0.04 * EZ, -0.05 * EZ, reverse=True)  # on the path: accepted, the path cut back
+    assert ctl.path.end_arc_length == pytest.approx(end - 0.0095, abs=1e-12)
+
+
+def test_the_controller_refuses_a_chain_that_is_not_a_chain():
+    with pytest.raises(TypeError, match="chain must be a navstack Chain"):
+        SlitherController(object())  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="extra_tasks"):
+        SlitherController(CHAIN, extra_tasks=[object()])  # type: ignore[list-item]

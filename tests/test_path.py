@@ -232,18 +232,21 @@ def test_pointer_work_per_step_is_bounded_and_independent_of_history():
 
 
 def test_retreat_moves_the_chain_back_along_its_path():
-    """The tip backs up along its own (curved) path: the chord points go back along the path too."""
+    """The tip backs up along its own (curved) path: the path is cut back and the chord points go back too."""
     *_, (pm, tip, pts) = _drive(_circle, 0.8)
     before = pts.copy()
+    dense = _dense(_circle, -3.0, 0.81)
     for s in np.arange(0.8, 0.5, -4e-4):  # retreat 0.3 m along the arc
         tip = _circle(s)[0]
-        pm.record(tip)
-        pts, _ = pm.chain(tip, np.zeros(3))
-    chain = np.vstack([tip, pts])
-    np.testing.assert_allclose(np.linalg.norm(np.diff(chain, axis=0), axis=1), L, atol=1e-9)
-    dense = _dense(_circle, -3.0, 0.81)
-    assert max(full_distance(dense, len(dense), p) for p in pts) < 1e-6  # still on the curve
+        pm.advance(tip, np.zeros(3), reverse=True)
+        pts = pm.pts
+        chain = np.vstack([tip, pts])
+        np.testing.assert_allclose(np.linalg.norm(np.diff(chain, axis=0), axis=1), L, atol=1e-9)
+        assert max(full_distance(dense, len(dense), p) for p in pts) < 1e-6  # still on the curve
     assert np.all(pts[:, 2] < before[:, 2] + 1e-9) and np.linalg.norm(pts - before) > 0.2
+    assert pm.end_arc_length == pytest.approx(pm.start_arc_length + 0.5, abs=5e-4)
+    # the head is the nearest point of the recorded chords (up to 1.2 mm long: sagitta 6e-7 m) to the command
+    np.testing.assert_allclose(pm.head, tip, atol=1e-6)
 
 
 # ---------------------------------------------------------------- distances
@@ -271,3 +274,131 @@ def test_distance_to_path_against_brute_force():
     assert pm.distance_to_path(p) == pytest.approx(0.05, abs=1e-12)
     beyond = pm.points[0] + np.array([0.0, 0.0, -0.1])  # past the extension's end
     assert pm.distance_to_path(beyond) == pytest.approx(0.1, abs=1e-12)
+
+
+# ---------------------------------------------------------------- reverse slithering
+@pytest.mark.parametrize("retreat", [0.5, 0.8, 0.9, 1.0, 1.15])
+def test_retreat_past_the_extension_end_keeps_every_joint_behind_the_previous(retreat):
+    """Issue 14: once J5 is past the end of the initial extension, J6 took the wrong root (folded onto J4).
+
+    The tip backs ``retreat`` metres straight along its initial backbone; every chord point must then be
+    one link behind the one before it on the extrapolated line (extension 0.6 m behind J6: J5 leaves it
+    for retreats over 0.8 m).
+    """
+    bb = _backbone(_line)  # tip at s = 0, J1..J6 behind it along -z
+    pm = PathMemory(bb, link_length=L)
+    back = np.array([0.0, 0.0, -0.05])
+    for s in np.arange(0.0, retreat + 1e-12, 0.002):
+        tip = _line(-s)[0]
+        pts, _ = pm.chain(tip, back)
+    expected = _line(-retreat - L * np.arange(1, M))
+    np.testing.assert_allclose(pts, expected, rtol=0, atol=1e-9)
+
+
+def test_point_at_and_truncate_cut_the_path_back_to_an_arc_length():
+    *_, (pm, tip, _) = _drive(_circle, 0.5)
+    dense = _dense(_circle, -1.3, 0.51)
+    end = pm.end_arc_length
+    np.testing.assert_allclose(pm.point_at(end)[0], tip, atol=1e-12)
+    assert end == pytest.approx(pm.start_arc_length + 0.5, abs=1e-6)  # polyline of ~1 mm chords on the arc
+    S, P = pm.arc_length, pm.points
+    for k in (0, 3, 7, len(S) // 2, len(S) - 1):
+        np.testing.assert_allclose(pm.point_at(S[k])[0], P[k], atol=1e-12)
+    for s in np.linspace(pm.start_arc_length + 0.01, end - 0.01, 17):  # on the arc: point and tangent
+        p, t = pm.point_at(s)
+        u = s - pm.start_arc_length
+        assert full_distance(dense, len(dense), p) < 1e-6  # on the chords: within their sagitta (4e-7 m)
+        assert np.linalg.norm(p - _circle(u)[0]) < 1e-5  # chords are shorter than the arc: the parameter drifts
+        tangent = (_circle(u + 1e-7)[0] - _circle(u - 1e-7)[0]) / 2e-7
+        assert np.linalg.norm(t - tangent) < 4e-3 and np.linalg.norm(t) == pytest.approx(1.0)
+    s_cut = pm.start_arc_length + 0.2345
+    p_cut, _ = pm.point_at(s_cut)
+    pm.truncate(s_cut)
+    assert pm.end_arc_length == pytest.approx(s_cut, abs=1e-15)
+    np.testing.assert_allclose(pm.head, p_cut, atol=1e-15)
+    np.testing.assert_allclose(pm.points[-1], p_cut, atol=1e-15)  # the turning point became a vertex
+    assert pm.arc_length.max() == pytest.approx(s_cut, abs=1e-15)
+    beyond = _circle(0.3)[0]  # dropped: now farther from the path than the sagitta
+    assert pm.distance_to_path(beyond) > 0.05
+    for bad in (0.0, -1.0, s_cut + 1e-3, np.nan):
+        with pytest.raises(ValueError, match="arc length"):
+            pm.truncate(bad)
+    with pytest.raises(ValueError, match="arc length"):
+        pm.point_at(s_cut + 1e-3)
+
+
+def test_truncation_work_is_bounded_by_the_dropped_vertices():
+    """A long history, then a retreat in small steps: each step visits only what it drops (no scan)."""
+    pm = PathMemory(_backbone(_line), link_length=L, spacing=1e-3)
+    for s in np.arange(5e-4, 6.0, 5e-4):
+        pm.record(_line(s)[0])
+    n_long = pm.n_points
+    counts = []
+    for _ in range(1, 200):  # back 2 mm per step
+        s = pm.end_arc_length - 2e-3
+        n0 = pm.n_points
+        pm.advance(_line(s - pm.start_arc_length)[0], np.array([0.0, 0.0, -0.06]), reverse=True)
+        counts.append(n0 - pm.n_points)
+    assert max(counts) <= 3  # 2 mm of ~1 mm segments and the previous turning point
+    assert n_long - pm.n_points >= 199 and pm.end_arc_length == pytest.approx(7.7995 - 0.398, abs=1e-9)
+
+
+def test_reverse_then_a_new_branch_keeps_the_old_part_under_the_joints():
+    """In along a circle, back 0.15 m, then straight on along the tangent at the turning point."""
+    v, dt = 0.05, 0.004
+    pm = PathMemory(_backbone(_circle), link_length=L, spacing=1e-3)
+    for s in np.arange(v * dt, 0.6 + 1e-12, v * dt):
+        pm.advance(_circle(s)[0], v * (_circle(s + 1e-7)[0] - _circle(s - 1e-7)[0]) / 2e-7)
+    s_end = pm.end_arc_length
+    for k in range(1, round(0.15 / (v * dt)) + 1):
+        p, t = pm.point_at(s_end - k * v * dt)
+        pm.advance(p, -v * t, reverse=True)
+    assert pm.end_arc_length == pytest.approx(s_end - 0.15, abs=1e-9)
+    turn, tangent = pm.point_at(pm.end_arc_length)
+    n_turn = pm.n_points
+    dense_old = _dense(_circle, -3.0, 0.45)
+    for k in range(1, 300):  # 0.06 m of a new straight branch
+        pm.advance(turn + k * v * dt * tangent, v * tangent)
+        branch = np.vstack([pm.points[n_turn - 1 :], pm.head])
+        chain = np.vstack([pm.head, pm.pts])
+        np.testing.assert_allclose(np.linalg.norm(np.diff(chain, axis=0), axis=1), L, atol=1e-9)
+        on_old = [p for p in pm.pts if full_distance(dense_old, len(dense_old), p) < 1e-6]
+        assert len(on_old) >= 5  # J2..J6 (and J1 for the first 0.2 m) still on the old arc
+    np.testing.assert_allclose(pm.points[n_turn - 1], turn, atol=1e-15)  # the new branch starts at the turn
+    off = branch - turn
+    assert np.abs(off - np.outer(off @ tangent, tangent)).max() < 1e-12  # and is straight along the tangent
+    assert pm.distance_to_path(_circle(0.55)[0]) > 0.005  # the retracted arc is gone
+
+
+def test_reverse_chain_velocities_match_finite_differences():
+    v, dt, radius = 0.05, 0.004, 0.15
+
+    def curve(s):
+        return _circle(s, radius)
+
+    pm = PathMemory(_backbone(curve), link_length=L, spacing=1e-3)
+    for s in np.arange(v * dt, 0.8, v * dt):
+        pm.advance(curve(s)[0], np.zeros(3))
+    P, Vel = [], []
+    s_end = pm.end_arc_length
+    for k in range(1, int(0.7 / (v * dt))):
+        p, t = pm.point_at(s_end - k * v * dt)
+        pm.advance(p, -v * t, reverse=True)
+        P.append(pm.pts.copy())
+        Vel.append(pm.vel.copy())
+    P, Vel = np.array(P), np.array(Vel)
+    fd = (P[2:] - P[:-2]) / (2 * dt)
+    err = np.linalg.norm(fd - Vel[1:-1], axis=2)
+    assert err.max() <= 0.01 * v, err.max() / v
+    assert np.all(np.diff(P[:, -1, 2]) < 0)  # J6, on the straight part along +z, goes back all the time
+
+
+def test_a_reverse_command_off_the_path_raises_and_changes_nothing():
+    *_, (pm, tip, _) = _drive(_circle, 0.4)
+    n, end, ptr = pm.n_points, pm.end_arc_length, pm.ptr.copy()
+    with pytest.raises(ValueError, match="retrace the path"):
+        pm.advance(tip + [0.0, 0.01, 0.0], np.zeros(3), reverse=True)
+    with pytest.raises(ValueError, match="x_tip"):
+        pm.advance([np.nan, 0.0, 0.0], np.zeros(3), reverse=True)
+    assert pm.n_points == n and pm.end_arc_length == end
+    np.testing.assert_array_equal(pm.ptr, ptr)

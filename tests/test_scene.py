@@ -1,4 +1,4 @@
-"""Scene: obstacles as static PyBullet bodies; clearance against analytic distances (metres)."""
+"""Scene: obstacles as PyBullet bodies (static and moving); clearance against analytic distances (metres)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,19 @@ from pybullet_utils import bullet_client
 from scipy.spatial.transform import Rotation
 
 from navstack.sim.scene import MAX_COMPOUND_CHILDREN, Scene, SceneOptions
-from navstack.world import Box, Cylinder, Goal, Mesh, RobotSpec, Sphere, World, WorldError, load_world
+from navstack.world import (
+    Box,
+    Cylinder,
+    Goal,
+    LinearMotion,
+    Mesh,
+    OscillateMotion,
+    RobotSpec,
+    Sphere,
+    World,
+    WorldError,
+    load_world,
+)
 
 R_PROBE = 0.03  # radius of the test "robot" sphere (m)
 TOL = 1e-3  # m
@@ -306,3 +318,62 @@ def test_world_file_to_scene(client, tmp_path):
     probe = make_probe(client)
     place(client, probe, [0.0, 0.0, 0.4])  # 0.3 above the cube's top face (z = 0.1)
     assert scene.clearance(probe) == pytest.approx(0.3 - R_PROBE, abs=TOL)
+
+
+# ---- moving obstacles (interfaces.md section 2b) and the start check's per-obstacle contacts
+
+
+def test_update_moves_only_the_moving_obstacles_by_the_spec_formulas(client):
+    lin = Sphere(center=[0.5, 0.0, 1.0], radius=0.1,
+                 motion=LinearMotion(velocity=[0.0, -0.1, 0.05], start=2.0, stop=8.0))
+    osc = Box(center=[1.0, 1.0, 0.5], half_extents=[0.1, 0.2, 0.3], rpy=[0.2, 0.0, 0.5],
+              motion=OscillateMotion(axis=[0.0, 3.0, 4.0], amplitude=0.25, period=5.0, phase=0.4))
+    static = Cylinder(p0=[2, 0, 0], p1=[2, 0, 1], radius=0.05)
+    scene = Scene.build(client, world_of(static, lin, osc))
+    b_static, b_lin, b_osc = scene.obstacle_body
+    assert len({b_static, b_lin, b_osc}) == 3  # moving obstacles have bodies of their own
+    pose_static = client.getBasePositionAndOrientation(b_static)
+    q_box = Rotation.from_euler("xyz", [0.2, 0.0, 0.5]).as_quat()
+    for t in (0.0, 1.0, 2.0, 3.3, 7.9, 8.0, 12.0, 0.7):
+        assert scene.update(t)
+        k = min(max(t - 2.0, 0.0), 6.0)  # clamp(t - start, 0, stop - start)
+        pos, orn = client.getBasePositionAndOrientation(b_lin)
+        np.testing.assert_allclose(pos, [0.5, -0.1 * k, 1.0 + 0.05 * k], atol=1e-9)
+        s = np.sin(2 * np.pi * t / 5.0 + 0.4)
+        pos, orn = client.getBasePositionAndOrientation(b_osc)
+        np.testing.assert_allclose(pos, [1.0, 1.0 + 0.25 * 0.6 * s, 0.5 + 0.25 * 0.8 * s], atol=1e-9)
+        assert abs(np.dot(orn, q_box)) == pytest.approx(1.0, abs=1e-9)  # translated, never rotated
+        assert client.getBasePositionAndOrientation(b_static) == pose_static
+    assert not Scene.build(client, world_of(static)).update(3.0)  # nothing moves: no collision update needed
+
+
+def test_clearance_sees_the_moved_position(client):
+    s = Sphere(center=[0.0, 0.0, 0.0], radius=0.1, motion=LinearMotion(velocity=[0.1, 0.0, 0.0]))
+    scene = Scene.build(client, world_of(s))
+    probe = make_probe(client)
+    place(client, probe, [1.0, 0.0, 0.0])
+    for t in (0.0, 2.0, 5.0, 8.0, 9.5):
+        scene.update(t)
+        client.performCollisionDetection()
+        expected = abs(1.0 - 0.1 * t) - 0.1 - R_PROBE
+        assert scene.clearance(probe) == pytest.approx(expected, abs=TOL)
+    assert scene.touching(probe) == [(0, pytest.approx(-0.08, abs=TOL))]  # at t = 9.5 they overlap
+
+
+def test_touching_names_each_obstacle_of_a_compound_body(client):
+    spheres = [Sphere(center=[x, 0.0, 0.0], radius=0.1) for x in (0.0, 1.0, 2.0, 3.0)]
+    box = Box(center=[0.0, 5.0, 0.0], half_extents=[0.5, 0.5, 0.5])
+    for combine in (True, False):
+        scene = Scene.build(client, world_of(*spheres, box), SceneOptions(combine_primitives=combine))
+        probe = make_probe(client)
+        place(client, probe, [1.0, 0.12, 0.0])  # 0.01 m into sphere 1 only
+        assert scene.touching(probe) == [(1, pytest.approx(-0.01, abs=TOL))]
+        place(client, probe, [2.5, 0.0, 0.0])  # 0.37 m from spheres 2 and 3
+        assert scene.touching(probe) == []
+        place(client, probe, [0.0, 5.0, 0.0])  # deep inside the box
+        assert scene.touching(probe) == [(4, pytest.approx(-0.53, abs=TOL))]
+        n = client.getNumBodies()
+        place(client, probe, [3.0, 0.0, 0.0])
+        assert [i for i, _ in scene.touching(probe)] == [3]
+        assert client.getNumBodies() == n  # the temporary bodies are gone
+        scene.remove()

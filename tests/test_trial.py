@@ -127,7 +127,7 @@ def test_bad_trial_arguments(kwargs, message):
 def test_goal_out_of_reach_is_bad_input(tmp_path, capsys):
     data = paper_truss_world()
     data["goals"][2]["position"] = [9.0, 0.1, 1.2]
-    with pytest.raises(ValueError, match=r"goals\[2\]\.position .* beyond the robot's reach"):
+    with pytest.raises(ValueError, match=r"goals\[2\]\.position: .* beyond the robot's reach"):
         run_trial(world_from_dict(data), planner="scripted")
     path = tmp_path / "far.json"
     path.write_text(json.dumps(data))

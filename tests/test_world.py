@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +19,9 @@ from navstack.world import (
     Box,
     Cylinder,
     Goal,
+    LinearMotion,
     Mesh,
+    OscillateMotion,
     RobotSpec,
     Sphere,
     World,
@@ -130,7 +133,9 @@ def test_round_trip(spec_file, tmp_path):
     save_world(w, dest)
     saved = json.loads(dest.read_text())
     assert saved["obstacles"][3]["path"] == "../parts/node.stl"
-    w2 = load_world(dest)
+    with pytest.raises(WorldError, match="allow-mesh-outside"):  # the mesh is outside the file's folder
+        load_world(dest)
+    w2 = load_world(dest, allow_mesh_outside=True)
     assert w2 == w and w2.source == dest.resolve()
     assert w2.extra == d["extra"] and w2.family == "truss"
     # saving next to the mesh folder writes the same relative path the spec uses
@@ -315,8 +320,8 @@ def test_duplicate_key(tmp_path):
 def test_unreadable_files(tmp_path):
     with pytest.raises(WorldError, match=r"missing\.json: \(top level\): cannot read"):
         load_world(tmp_path / "missing.json")
-    with pytest.raises(WorldError, match="cannot read"):
-        load_world(tmp_path)  # a directory
+    with pytest.raises(WorldError, match="expected a regular file, got a directory"):
+        load_world(tmp_path)
     f = tmp_path / "latin1.json"
     f.write_bytes(b'{"name": "caf\xe9"}')
     with pytest.raises(WorldError, match=r"latin1\.json: .*UTF-8"):
@@ -354,3 +359,232 @@ def test_dataclasses_validate_too(tmp_path):
         s.center[0] = 5.0  # read-only array
     assert s == Sphere(center=np.array([1.0, 2.0, 3.0]), radius=0.5)
     assert hash(s) == hash(Sphere(center=(1, 2, 3), radius=0.5))
+
+
+# ---------------------------------------------------------------------------- bounds (issue 8)
+
+BOUND_CASES = [
+    # (id, mutation, json_path, message fragment)
+    ("base-1e308", _set("robot.base.position[0]", 1e308), "robot.base.position[0]", "[-1000, 1000] m"),
+    ("goal-far", _set("goals[0].position[2]", 1000.5), "goals[0].position[2]", "[-1000, 1000] m"),
+    ("p0-far", _set("obstacles[0].p0[1]", -2e3), "obstacles[0].p0[1]", "[-1000, 1000] m"),
+    ("center-far", _set("obstacles[1].center[0]", 1e300), "obstacles[1].center[0]", "[-1000, 1000] m"),
+    ("mesh-position-far", _set("obstacles[3].position[0]", 1e4), "obstacles[3].position[0]", "1000"),
+    ("radius-huge", _set("obstacles[2].radius", 1e308), "obstacles[2].radius", "[0.0001, 1000] m"),
+    ("radius-tiny", _set("obstacles[0].radius", 1e-300), "obstacles[0].radius", "[0.0001, 1000] m"),
+    ("half-extent-huge", _set("obstacles[1].half_extents[2]", 1e308), "obstacles[1].half_extents[2]", "1000"),
+    ("cylinder-short", _set("obstacles[0].p1", [1.2, -0.5, 1.00001]), "obstacles[0].p1", "0.0001 m"),
+    ("rpy-degrees", _set("obstacles[1].rpy[2]", 90), "obstacles[1].rpy[2]", "rad"),
+    ("base-rpy-huge", _set("robot.base.rpy[1]", 1e308), "robot.base.rpy[1]", "rad"),
+    ("scale-huge", _set("obstacles[3].scale", 1e308), "obstacles[3].scale", "[0.0001, 10000]"),
+    ("tolerance-huge", _set("goals[0].tolerance", 5.0), "goals[0].tolerance", "[0.0001, 1] m"),
+    ("serp-radius-huge", _set("robot.serpentine_radius", 2.0), "robot.serpentine_radius", "[0.01, 0.5] m"),
+    ("arm-radius-tiny", _set("robot.arm_radius", 1e-5), "robot.arm_radius", "[0.01, 0.5] m"),
+    ("time-limit-1e308", _set("time_limit", 1e308), "time_limit", "(0, 3600] s"),
+    ("time-limit-huge-int", _set("time_limit", 10**400), "time_limit", "digits"),
+    ("too-many-goals", _set("goals", [{"position": [1, 0, 1]}] * 1001), "goals", "at most 1000 goals"),
+    ("extra-deep", _set("extra", {"a": json.loads("[" * 70 + "1" + "]" * 70)}), "extra.a" + "[0]" * 63,
+     "nested too deeply"),
+]
+
+
+@pytest.mark.parametrize(("mutate", "json_path", "fragment"), [c[1:] for c in BOUND_CASES],
+                         ids=[c[0] for c in BOUND_CASES])
+def test_bounds_name_the_field(valid, spec_file, mutate, json_path, fragment):
+    """Every length and coordinate has a documented range; a value outside it is refused at its own path."""
+    d = copy.deepcopy(valid)
+    mutate(d)
+    spec_file.write_text(json.dumps(d))
+    with pytest.raises(WorldError) as ei:
+        load_world(spec_file)
+    assert ei.value.json_path == json_path, str(ei.value)
+    assert fragment in str(ei.value), str(ei.value)
+
+
+def test_bounds_hold_for_dataclasses_too():
+    with pytest.raises(WorldError, match=r"Base\.position\[0\]"):
+        Base(position=[1e308, 0, 0])
+    with pytest.raises(WorldError, match=r"Sphere\.radius.*1000"):
+        Sphere(center=[0, 0, 0], radius=1e308)
+    with pytest.raises(WorldError, match=r"World\.time_limit.*3600"):
+        World(name="w", robot=RobotSpec(), obstacles=(), goals=(Goal(position=[1, 0, 1]),), time_limit=1e308)
+    with pytest.raises(WorldError, match=r"World\.obstacles: expected at most 10000"):
+        World(name="w", robot=RobotSpec(), obstacles=(Sphere(center=[0, 0, 5], radius=0.1),) * 10_001,
+              goals=(Goal(position=[1, 0, 1]),))
+
+
+def test_scaled_mesh_extent_is_bounded(valid, spec_file):
+    write_stl(spec_file.parent / "parts" / "big.stl", extents=(10.0, 10.0, 10.0))
+    valid["obstacles"][3].update(path="parts/big.stl", scale=300.0)  # vertices 1500 m from the origin
+    with pytest.raises(WorldError, match=r"obstacles\[3\]\.scale: expected a scale that keeps the mesh within 1000 m"):
+        world_from_dict(valid, source=spec_file)
+    valid["obstacles"][3]["scale"] = 200.0
+    assert world_from_dict(valid, source=spec_file).obstacles[3].scale == 200.0
+
+
+def test_values_at_the_bounds_are_accepted(valid, spec_file):
+    valid["robot"]["base"]["position"] = [1000.0, -1000.0, 0.0]
+    valid["goals"][0]["position"] = [999.0, -1000.0, 1.0]
+    valid["obstacles"][2]["radius"] = 1000.0
+    valid["obstacles"][0]["radius"] = 1e-4
+    valid["obstacles"][1]["rpy"] = [2 * np.pi, -2 * np.pi, 0.0]
+    valid["time_limit"] = 3600
+    valid["goals"][0]["tolerance"] = 1.0
+    w = world_from_dict(valid, source=spec_file)
+    assert w.time_limit == 3600.0 and w.obstacles[2].radius == 1000.0
+
+
+# ---------------------------------------------------------------------------- mesh paths (issue 8, item 4)
+
+def test_mesh_inside_the_world_folder_tree_only(tmp_path):
+    world_dir = tmp_path / "w"
+    write_stl(world_dir / "parts" / "in.stl")
+    outside = write_stl(tmp_path / "secret" / "x.stl")
+    (world_dir / "parts" / "link.stl").symlink_to(outside)
+    (world_dir / "sub").mkdir()
+    f = world_dir / "world.json"
+
+    def load(path: str, **kw):
+        f.write_text(json.dumps({"format": FORMAT, "name": "m", "robot": {}, "goals": [{"position": [0, 0, 3]}],
+                                 "obstacles": [{"type": "sphere", "center": [5, 5, 5], "radius": 0.1},
+                                               {"type": "mesh", "path": path, "position": [3, 0, 0]}]}))
+        return load_world(f, **kw)
+
+    assert load("parts/in.stl").obstacles[1].path == (world_dir / "parts" / "in.stl").resolve()
+    assert load("sub/../parts/in.stl").obstacles[1].path == (world_dir / "parts" / "in.stl").resolve()
+    for path, fragment in [("../secret/x.stl", "leads to"), (str(outside), "absolute path"),
+                           ("parts/link.stl", "leads to"), ("~/x.stl", "absolute path")]:
+        with pytest.raises(WorldError) as ei:
+            load(path)
+        assert ei.value.json_path == "obstacles[1].path" and fragment in str(ei.value), str(ei.value)
+        assert "--allow-mesh-outside" in str(ei.value)
+    assert load("../secret/x.stl", allow_mesh_outside=True).obstacles[1].path == outside.resolve()
+    assert load("parts/link.stl", allow_mesh_outside=True).obstacles[1].path == outside.resolve()
+    assert load(str(outside), allow_mesh_outside=True).obstacles[1].path == outside.resolve()
+
+
+# ---------------------------------------------------------------------------- file size and kind (item 6)
+
+def test_world_file_size_and_kind(tmp_path, valid, spec_file):
+    big = tmp_path / "big.json"
+    with open(big, "wb") as fh:
+        fh.truncate(65 * 1024 * 1024)  # sparse: refused from its size, never read
+    with pytest.raises(WorldError, match=r"big\.json: \(top level\): the file is 65\.0 MiB, more than the 64 MiB"):
+        load_world(big)
+    spec_file.write_text(json.dumps(valid))
+    size = spec_file.stat().st_size
+    with pytest.raises(WorldError, match="max_bytes"):
+        load_world(spec_file, max_bytes=size - 1)
+    assert load_world(spec_file, max_bytes=size).name == "paper-truss"
+    with pytest.raises(WorldError, match="expected a regular file, got a character device"):
+        load_world("/dev/zero")
+    fifo = tmp_path / "pipe.json"
+    os.mkfifo(fifo)
+    with pytest.raises(WorldError, match=r"pipe\.json: \(top level\): expected a regular file, got a FIFO"):
+        load_world(fifo)  # refused without waiting for a writer
+    with pytest.raises(ValueError, match="max_bytes"):
+        load_world(spec_file, max_bytes=0)
+
+
+def test_huge_integer_is_a_world_error(tmp_path):
+    f = tmp_path / "int.json"
+    f.write_text('{"format": "navstack-world/1", "name": "x", "robot": {}, "obstacles": [], "goals": [], '
+                 '"time_limit": 1' + "0" * 5000 + "}")
+    with pytest.raises(WorldError, match="invalid JSON"):
+        load_world(f)
+
+
+# ---------------------------------------------------------------------------- moving obstacles (section 2b)
+
+MOVING = [
+    {"type": "sphere", "center": [1.0, 0.5, 1.0], "radius": 0.1,
+     "motion": {"type": "linear", "velocity": [0.0, -0.1, 0.02], "start": 5.0, "stop": 15.0}},
+    {"type": "box", "center": [1.5, 0.0, 0.5], "half_extents": [0.1, 0.2, 0.3], "rpy": [0, 0, 0.5],
+     "motion": {"type": "oscillate", "axis": [0, 0, 2], "amplitude": 0.1, "period": 6.0, "phase": 0.3}},
+    {"type": "cylinder", "p0": [1.2, -0.5, 1.0], "p1": [1.2, 0.5, 1.0], "radius": 0.02,
+     "motion": {"type": "linear", "velocity": [0.05, 0, 0]}},
+]
+
+
+def test_moving_obstacles_parse_with_defaults_and_round_trip(valid, spec_file, tmp_path):
+    valid["obstacles"] = copy.deepcopy(MOVING) + valid["obstacles"]
+    valid["obstacles"][1]["motion"].pop("phase")
+    w = world_from_dict(valid, source=spec_file)
+    lin, osc, cyl = (o.motion for o in w.obstacles[:3])
+    assert isinstance(lin, LinearMotion) and (lin.start, lin.stop) == (5.0, 15.0)
+    assert isinstance(osc, OscillateMotion) and osc.phase == 0.0 and osc.period == 6.0
+    assert (cyl.start, cyl.stop) == (0.0, float("inf"))
+    assert w.obstacles[4].motion is None
+    out = w.to_dict()
+    assert out["obstacles"][2]["motion"] == {"type": "linear", "velocity": [0.05, 0.0, 0.0], "start": 0.0}
+    assert "motion" not in out["obstacles"][4]
+    assert json.loads(json.dumps(out, allow_nan=False)) == out
+    assert world_from_dict(out) == w
+    save_world(w, tmp_path / "copy.json")
+    assert load_world(tmp_path / "copy.json") == w
+    moved = copy.deepcopy(valid)
+    moved["obstacles"][0]["motion"]["stop"] = 15.5
+    assert world_from_dict(moved, source=spec_file) != w
+
+
+def test_motion_formulas_at_sampled_times():
+    """interfaces.md 2b: linear d = v clamp(t - start, 0, stop - start); oscillate A unit(axis) sin(2 pi t/T + phi)."""
+    lin = LinearMotion(velocity=[0.1, -0.2, 0.05], start=2.0, stop=7.0)
+    osc = OscillateMotion(axis=[3.0, 0.0, 4.0], amplitude=0.2, period=4.0, phase=0.5)
+    forever = LinearMotion(velocity=[0.0, 0.0, -0.3])
+    for t in (0.0, 1.0, 2.0, 2.5, 6.9, 7.0, 30.0):
+        k = min(max(t - 2.0, 0.0), 5.0)
+        np.testing.assert_allclose(lin.displacement(t), [0.1 * k, -0.2 * k, 0.05 * k], atol=1e-15)
+        s = np.sin(2 * np.pi * t / 4.0 + 0.5)
+        np.testing.assert_allclose(osc.displacement(t), [0.2 * 0.6 * s, 0.0, 0.2 * 0.8 * s], atol=1e-15)
+        np.testing.assert_allclose(forever.displacement(t), [0.0, 0.0, -0.3 * t], atol=1e-15)
+
+
+MOTION_ERRORS = [
+    ("mesh-motion", 3, {"type": "linear", "velocity": [0, 0, 0.1]}, "obstacles[3].motion", "a mesh cannot move"),
+    ("unknown-key", 2, {"type": "linear", "velocity": [0, 0, 0.1], "sped": 1}, "obstacles[2].motion.sped",
+     "unknown key"),
+    ("unknown-osc-key", 1, {"type": "oscillate", "axis": [0, 0, 1], "amplitude": 0.1, "period": 5, "phse": 0},
+     "obstacles[1].motion.phse", "unknown key"),
+    ("type-missing", 0, {"velocity": [0, 0, 0.1]}, "obstacles[0].motion.type", "missing"),
+    ("type-unknown", 0, {"type": "circle"}, "obstacles[0].motion.type", '"linear", "oscillate"'),
+    ("not-object", 0, [1, 2], "obstacles[0].motion", "motion object"),
+    ("velocity-missing", 2, {"type": "linear"}, "obstacles[2].motion.velocity", "missing"),
+    ("too-fast", 2, {"type": "linear", "velocity": [0.4, 0.4, 0]}, "obstacles[2].motion.velocity", "0.5 m/s"),
+    ("velocity-1e308", 2, {"type": "linear", "velocity": [1e308, 0, 0]}, "obstacles[2].motion.velocity[0]",
+     "m/s"),
+    ("stop-before-start", 2, {"type": "linear", "velocity": [0, 0, 0.1], "start": 5, "stop": 4},
+     "obstacles[2].motion.stop", "at least start"),
+    ("start-negative", 2, {"type": "linear", "velocity": [0, 0, 0.1], "start": -1}, "obstacles[2].motion.start",
+     "[0, 1e+06] s"),
+    ("axis-zero", 1, {"type": "oscillate", "axis": [0, 0, 0], "amplitude": 0.1, "period": 5},
+     "obstacles[1].motion.axis", "non-zero"),
+    ("period-zero", 1, {"type": "oscillate", "axis": [0, 0, 1], "amplitude": 0.1, "period": 0},
+     "obstacles[1].motion.period", "positive"),
+    ("osc-too-fast", 1, {"type": "oscillate", "axis": [0, 0, 1], "amplitude": 1.0, "period": 2.0},
+     "obstacles[1].motion.period", "peak speed"),
+    ("phase-nan", 1, {"type": "oscillate", "axis": [0, 0, 1], "amplitude": 0.1, "period": 5, "phase": "x"},
+     "obstacles[1].motion.phase", "number"),
+]
+
+
+@pytest.mark.parametrize(("index", "motion", "json_path", "fragment"), [c[1:] for c in MOTION_ERRORS],
+                         ids=[c[0] for c in MOTION_ERRORS])
+def test_motion_errors_name_the_path(valid, spec_file, index, motion, json_path, fragment):
+    valid["obstacles"][index]["motion"] = motion
+    spec_file.write_text(json.dumps(valid))
+    with pytest.raises(WorldError) as ei:
+        load_world(spec_file)
+    assert ei.value.json_path == json_path, str(ei.value)
+    assert fragment in str(ei.value), str(ei.value)
+
+
+def test_motion_dataclasses_validate():
+    with pytest.raises(WorldError, match=r"LinearMotion\.velocity"):
+        LinearMotion(velocity=[1.0, 0.0, 0.0])
+    with pytest.raises(WorldError, match=r"LinearMotion\.stop"):
+        LinearMotion(velocity=[0.1, 0.0, 0.0], start=3.0, stop=2.0)
+    with pytest.raises(WorldError, match=r"OscillateMotion\.period"):
+        OscillateMotion(axis=[1, 0, 0], amplitude=1.0, period=1.0)
+    with pytest.raises(WorldError, match=r"Sphere\.motion"):
+        Sphere(center=[0, 0, 0], radius=1.0, motion={"type": "linear"})

@@ -1,4 +1,4 @@
-"""The obstacles of a :class:`~navstack.world.World` as static PyBullet bodies, and clearance queries.
+"""The obstacles of a :class:`~navstack.world.World` as PyBullet bodies, their motion, and clearance queries.
 
 Obstacles are known to the simulator only: this module is the one place that turns obstacle geometry
 into simulator bodies.  The planner and controller must never import it or read ``world.obstacles``.
@@ -11,6 +11,13 @@ Geometry (metres, radians):
 * sphere: ``GEOM_SPHERE``;
 * mesh: loaded with trimesh, vertices multiplied by ``scale``, and given to PyBullet as vertices + indices,
   which PyBullet turns into a static concave triangle mesh (``btBvhTriangleMeshShape``).
+
+Moving obstacles (a primitive with ``motion``, interfaces.md section 2b) get a body of their own each
+(mass 0, like every obstacle: moved by the scene, never by the physics).  :meth:`Scene.update` places them
+at a simulated time t: translated by ``motion.displacement(t)`` from their pose in the file, never
+rotated (``resetBasePositionAndOrientation``).  The trial calls it once per control step, then
+``performCollisionDetection`` so rays and clearance queries see the new positions.  Only the simulator
+knows the motion.
 
 Performance choice (measured on a 40-cylinder truss with a 9-capsule chain inside it, pybullet 3.2.7,
 median of 9 x 50 queries): the primitives are packed into compound bodies of at most 16 children
@@ -42,7 +49,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from navstack.sim._bullet import pybullet as p
-from navstack.world import Box, Cylinder, Mesh, Obstacle, Sphere, World, WorldError
+from navstack.world import Box, Cylinder, Mesh, Motion, Obstacle, Sphere, World, WorldError
 
 MAX_COMPOUND_CHILDREN = 16
 """PyBullet keeps at most this many shapes in one ``createCollisionShapeArray`` / visual array."""
@@ -114,15 +121,27 @@ def _check_id(value: int, what: str) -> int:
     return value
 
 
+@dataclass(frozen=True)
+class _Mover:
+    """A moving obstacle's body and its pose at zero displacement (the pose the world file gives)."""
+
+    index: int
+    body: int
+    position: np.ndarray
+    orientation: list[float]
+    motion: Motion
+
+
 @dataclass
 class Scene:
-    """Static obstacle bodies of one world in one PyBullet client.
+    """The obstacle bodies of one world in one PyBullet client.
 
     Attributes:
         client: the ``pybullet_utils.bullet_client.BulletClient`` the bodies live in.
         world: the world they were built from.
         body_ids: ids of all obstacle bodies (compound bodies hold several primitives).
         obstacle_body: for each ``world.obstacles[i]``, the id of the body that holds it.
+        time: the simulated time (s) the moving obstacles were last placed at (:meth:`update`).
     """
 
     client: Any
@@ -130,10 +149,12 @@ class Scene:
     body_ids: tuple[int, ...]
     obstacle_body: tuple[int, ...]
     options: SceneOptions = field(default_factory=SceneOptions)
+    movers: tuple[_Mover, ...] = ()
+    time: float = 0.0
 
     @classmethod
     def build(cls, client: Any, world: World, options: SceneOptions | None = None) -> Scene:
-        """Create every obstacle of ``world`` as a static (mass 0) body in ``client``.
+        """Create every obstacle of ``world`` as a mass-0 body in ``client``, moving ones at t = 0.
 
         Raises:
             WorldError: a mesh file cannot be read (it was readable when the world was loaded).
@@ -142,7 +163,7 @@ class Scene:
         opts = options or SceneOptions()
         body_of: list[int] = [-1] * len(world.obstacles)
         bodies: list[int] = []
-        prims = [(i, o) for i, o in enumerate(world.obstacles) if not isinstance(o, Mesh)]
+        prims = [(i, o) for i, o in enumerate(world.obstacles) if not isinstance(o, Mesh) and o.motion is None]
         if opts.combine_primitives:
             for s in range(0, len(prims), MAX_COMPOUND_CHILDREN):
                 chunk = prims[s:s + MAX_COMPOUND_CHILDREN]
@@ -155,13 +176,59 @@ class Scene:
                 b = _single_body(client, _primitive(o), opts.primitive_rgba)
                 bodies.append(b)
                 body_of[i] = b
+        movers = []
         for i, o in enumerate(world.obstacles):
             if isinstance(o, Mesh):
                 b = _mesh_body(client, o, i, opts.mesh_rgba)
-                bodies.append(b)
-                body_of[i] = b
-        return cls(client=client, world=world, body_ids=tuple(bodies), obstacle_body=tuple(body_of),
-                   options=opts)
+            elif o.motion is not None:
+                q = _primitive(o)
+                b = _single_body(client, q, opts.primitive_rgba)
+                movers.append(_Mover(i, b, np.array(q.position), q.orientation, o.motion))
+            else:
+                continue
+            bodies.append(b)
+            body_of[i] = b
+        scene = cls(client=client, world=world, body_ids=tuple(bodies), obstacle_body=tuple(body_of),
+                    options=opts, movers=tuple(movers))
+        scene.update(0.0)
+        return scene
+
+    def update(self, t: float) -> bool:
+        """Place the moving obstacles at simulated time ``t`` (s): each translated by its
+        ``motion.displacement(t)`` (m) from its pose in the world file.  Returns whether the scene has
+        moving obstacles (then call ``performCollisionDetection`` before querying distances or rays)."""
+        self.time = float(t)
+        for m in self.movers:
+            position = m.position + m.motion.displacement(self.time)
+            self.client.resetBasePositionAndOrientation(m.body, position.tolist(), m.orientation)
+        return bool(self.movers)
+
+    def touching(self, robot_id: int) -> list[tuple[int, float]]:
+        """The obstacles that ``robot_id`` touches or penetrates now (signed distance <= 0), as
+        ``(index in world.obstacles, signed distance in m)`` sorted by index.
+
+        A compound body that touches is resolved child by child with temporary bodies, so each obstacle
+        is named on its own.  As everywhere, a robot part inside a closed mesh is not seen (module doc).
+        """
+        cl = self.client
+        out: dict[int, float] = {}
+        for b in self.body_ids:
+            d = _min_distance(cl, robot_id, b)
+            if d > 0.0:
+                continue
+            members = [i for i, body in enumerate(self.obstacle_body) if body == b]
+            if len(members) == 1:
+                out[members[0]] = d
+                continue
+            for i in members:  # a compound body: which of its primitives?
+                tmp = _single_body(cl, _primitive(self.world.obstacles[i]), self.options.primitive_rgba)
+                try:
+                    di = _min_distance(cl, robot_id, tmp)
+                finally:
+                    cl.removeBody(tmp)
+                if di <= 0.0:
+                    out[i] = di
+        return sorted(out.items())
 
     def clearance(self, robot_id: int, max_distance: float = 1.0) -> float:
         """Minimum signed distance (m) between any link of ``robot_id`` and any obstacle.
@@ -208,6 +275,12 @@ class Scene:
             self.client.removeBody(b)
         self.body_ids = ()
         self.obstacle_body = ()
+        self.movers = ()
+
+
+def _min_distance(client: Any, robot_id: int, body: int) -> float:
+    """Smallest signed distance (m) between ``robot_id`` and ``body`` if <= 0, else ``inf``."""
+    return min((pt[8] for pt in client.getClosestPoints(robot_id, body, 0.0)), default=math.inf)
 
 
 def _compound_body(client: Any, prims: Sequence[_Primitive], rgba: Sequence[float]) -> int:

@@ -1,10 +1,27 @@
-"""Joint servo: PyBullet position control tracking theta_d(t).
+"""Joint servo: PyBullet position control tracking theta_d(t), with gravity feed-forward.
 
 The paper assumes "low-level joint servo-loops capable of ensuring that the
 robot joint-space position remains close to any desired trajectory
 theta_d(t)".  Here that is PyBullet's ``POSITION_CONTROL`` motor on every
 joint, with explicit per-joint force limits and gains, fed both the desired
-position and the desired velocity (feed-forward).
+position and the desired velocity (feed-forward), plus a gravity feed-forward
+torque.
+
+Gravity compensation
+    PyBullet's motors are velocity constraints solved iteratively; alone they
+    hold a 20-joint arm against gravity with a static droop (0.93 mm at the
+    joint points at the start posture, 0.83 mm over the demo).  Each physics
+    step therefore also applies, with ``TORQUE_CONTROL`` (an extra joint torque
+    for that one step; the position motors stay on), the holding torques at the
+    set-point: ``tau_g(q) = -sum_i m_i J_i(q)^T g``, ``m_i`` the mass of link
+    ``i`` (read from PyBullet), ``J_i`` the position Jacobian of its centre of
+    mass (the origin of its DH frame, where :mod:`navstack.sim.body` puts it)
+    and ``g`` the gravity in the base frame.  That is
+    ``calculateInverseDynamics(q, 0, 0)`` with the base's orientation taken into
+    account: PyBullet's own inverse dynamics ignores a rotated fixed base and
+    applies gravity along the base's -z (bullet3 issue 2876; for the demo's
+    base, along the lathe bed), so it is not used.  With ``tau_g`` alone
+    (motors off) the robot stays still at its start posture (tests/test_body.py).
 
 Rates: physics at ``physics_hz`` (default 240 Hz), the controller at
 ``control_hz`` (default 30 Hz); one control step = ``substeps`` physics steps.
@@ -23,8 +40,34 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from navstack.kinematics import Chain, frames_into, point_jacobians_into
 from navstack.sim._bullet import pybullet
 from navstack.sim.body import RobotBody
+
+
+class GravityTorques:
+    """Joint torques [N, N m] that hold ``chain`` still against gravity: ``-sum_i m_i J_i(q)^T g``.
+
+    ``masses[i]`` [kg] is the mass of the body carrying DH frame ``i + 1`` (PyBullet link ``i``), its
+    centre of mass at that frame's origin; ``gravity`` (3,) [m/s^2] is in the base frame.
+    """
+
+    def __init__(self, chain: Chain, masses: ArrayLike, gravity: ArrayLike) -> None:
+        self.chain = chain
+        self.masses = np.asarray(masses, dtype=np.float64)
+        if self.masses.shape != (len(chain.alpha),):
+            raise ValueError(f"masses must have one value per DH row ({len(chain.alpha)}), got {self.masses.shape}")
+        self.gravity = np.asarray(gravity, dtype=np.float64)
+        self._frames = np.arange(1, len(chain.alpha) + 1, dtype=np.int64)
+        self._F = np.empty((chain.n_frames, 4, 4))
+        self._J = np.empty((len(self._frames), 3, chain.n))
+        self._weights = self.masses[:, None] * self.gravity[None, :]  # m_i g
+
+    def __call__(self, q: ArrayLike) -> np.ndarray:
+        ch = self.chain
+        frames_into(ch.alpha, ch.a, ch.d, ch.theta, ch.prismatic, np.asarray(q, dtype=np.float64), self._F)
+        point_jacobians_into(self._F, ch.prismatic, self._frames, self._J)
+        return -np.einsum("ic,icj->j", self._weights, self._J)
 
 
 @dataclass(frozen=True)
@@ -44,6 +87,8 @@ class ServoConfig:
     serpentine_torque: float = 200.0
     gravity: float = -9.81
     solver_iterations: int = 100
+    gravity_compensation: bool = True
+    """Add the holding torques at the set-point to every joint (module docstring)."""
 
     def __post_init__(self) -> None:
         for name in ("physics_hz", "control_hz", "lathe_force", "arm_torque", "serpentine_torque"):
@@ -92,6 +137,16 @@ class JointServo:
         self._prev: np.ndarray | None = None
         self._target = np.zeros(n)
         self._rate = np.zeros(n)
+        self.gravity_torques: GravityTorques | None = None
+        if config.gravity_compensation:
+            links = range(len(body.chain.alpha))
+            info = [client.getDynamicsInfo(body.body_id, link) for link in links]
+            offset = max(float(np.abs(i[3]).max()) for i in info)
+            if offset > 1e-12:  # the model below puts every centre of mass at its frame's origin
+                raise ValueError(f"gravity compensation needs link centres of mass at the frame origins "
+                                 f"(offset {offset} m)")
+            g_base = body.base_transform[:3, :3].T @ np.array([0.0, 0.0, config.gravity])
+            self.gravity_torques = GravityTorques(body.chain, [i[0] for i in info], g_base)
 
     def hold(self, q: ArrayLike) -> None:
         """Start from rest at ``q`` (the first command interpolates from here)."""
@@ -136,4 +191,7 @@ class JointServo:
                 positionGains=self.kp,
                 velocityGains=self.kd,
             )
+            if self.gravity_torques is not None:  # an extra torque for this step; the motors stay on
+                client.setJointMotorControlArray(self.body.body_id, self.body.joint_indices,
+                                                 pybullet.TORQUE_CONTROL, forces=list(self.gravity_torques(q)))
             client.stepSimulation()

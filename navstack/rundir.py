@@ -1,0 +1,163 @@
+"""A trial's output folder (``navstack run --out DIR``) read back: the world it ran, its trajectory, its result.
+
+``run_trial(..., out_dir=DIR)`` writes ``DIR/world.json`` (:func:`write_run_world`) beside
+``result.json`` and ``trajectory.npz``, so that ``navstack animate DIR`` and ``navstack view DIR`` need
+nothing but the folder.  Mesh obstacles: their files are copied into ``DIR/meshes/`` and ``world.json``
+names them there (``meshes/<index>-<file name>``), so the run folder is self-contained: it can be moved
+or archived, and its mesh paths never leave its own folder tree.
+
+``trajectory.npz`` holds ``t`` (T,), ``q`` (T, 20), ``q_des`` (T, 20), ``tip_des`` (T, 3)
+(interfaces.md section 3) and, optionally, ``sensed`` (T, K, 3): world points [m] the tip sensors hit
+at each control step, NaN where a ray hit nothing.  navstack does not record ``sensed`` today; the
+viewer draws it when a trajectory has it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import shutil
+import zipfile
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from navstack.world import Mesh, World, WorldError, load_world, save_world
+
+WORLD_FILE = "world.json"
+TRAJECTORY_FILE = "trajectory.npz"
+RESULT_FILE = "result.json"
+MESH_DIR = "meshes"
+
+
+def write_run_world(world: World, out_dir: str | os.PathLike[str]) -> Path:
+    """Write ``world`` as ``out_dir/world.json``, its mesh files copied to ``out_dir/meshes/``.
+
+    Returns the path of ``world.json``.  Raises ``OSError`` when the folder or a mesh copy cannot be
+    written.
+    """
+    out = Path(out_dir)
+    obstacles = list(world.obstacles)
+    for i, o in enumerate(obstacles):
+        if isinstance(o, Mesh):
+            dest = out / MESH_DIR / f"{i:03d}-{o.path.name}"
+            if dest.resolve() != o.path:
+                dest.parent.mkdir(parents=True, exist_ok=True)
+                shutil.copyfile(o.path, dest)
+            obstacles[i] = dataclasses.replace(o, path=dest)
+    if any(isinstance(o, Mesh) for o in obstacles):
+        world = dataclasses.replace(world, obstacles=tuple(obstacles))
+    path = out / WORLD_FILE
+    tmp = path.with_name(path.name + ".tmp")
+    save_world(world, tmp)
+    os.replace(tmp, path)
+    return path
+
+
+@dataclass(frozen=True)
+class RunData:
+    """What a run folder holds, validated.
+
+    Attributes:
+        path: the run folder.
+        world: the world the trial ran (``world.json``, or the file given to :func:`load_run`).
+        t: control-step times [s], shape (T,).
+        q: measured joints (T, 20) [m for joint 1, rad for the others].
+        q_des: commanded joints (T, 20).
+        tip_des: commanded tip positions in the world (T, 3) [m].
+        result: ``result.json`` as a dict, or ``None`` when the folder has none (an interrupted run).
+        sensed: optional (T, K, 3) sensed world points [m], NaN where nothing was sensed.
+    """
+
+    path: Path
+    world: World
+    t: NDArray[np.float64]
+    q: NDArray[np.float64]
+    q_des: NDArray[np.float64]
+    tip_des: NDArray[np.float64]
+    result: dict[str, Any] | None = None
+    sensed: NDArray[np.float64] | None = None
+
+    @property
+    def duration(self) -> float:
+        """Simulated time of the last sample [s]."""
+        return float(self.t[-1]) if len(self.t) else 0.0
+
+
+def _array(data: dict[str, np.ndarray], key: str, shape: tuple[int | None, ...], file: Path, *,
+           finite: bool = True) -> np.ndarray:
+    if key not in data:
+        raise ValueError(f"{file}: has no array {key!r} (expected t, q, q_des, tip_des as navstack run writes)")
+    try:
+        a = np.asarray(data[key], dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{file}: array {key!r} is not numeric ({e})") from e
+    if a.ndim != len(shape) or any(s is not None and s != n for s, n in zip(shape, a.shape, strict=True)):
+        want = "(" + ", ".join("T" if s is None else str(s) for s in shape) + ")"
+        raise ValueError(f"{file}: array {key!r} has shape {a.shape}, expected {want}")
+    if finite and not np.isfinite(a).all():
+        raise ValueError(f"{file}: array {key!r} holds NaN or infinite values")
+    return a
+
+
+def load_run(run_dir: str | os.PathLike[str], world: str | os.PathLike[str] | World | None = None) -> RunData:
+    """Read and check the run folder ``run_dir``.
+
+    ``world`` overrides ``run_dir/world.json`` (a path or a :class:`World`), for folders written before
+    navstack wrote it.  Raises ``ValueError`` (``WorldError`` for the world) naming the file and what is
+    wrong: a missing folder or file, an array of the wrong shape or with non-finite values, samples of
+    different lengths, times that do not increase.
+    """
+    run = Path(run_dir)
+    if not run.is_dir():
+        raise ValueError(f"{run}: not a folder (expected a run folder written by navstack run --out)")
+    traj = run / TRAJECTORY_FILE
+    if not traj.is_file():
+        raise ValueError(f"{run}: has no {TRAJECTORY_FILE} (expected a run folder written by navstack run --out)")
+    if world is None:
+        wfile = run / WORLD_FILE
+        if not wfile.is_file():
+            raise ValueError(f"{run}: has no {WORLD_FILE} (written by navstack run since version 0.1 with "
+                             f"animations); pass the world file the trial ran with --world")
+        world = load_world(wfile)
+    elif not isinstance(world, World):
+        world = load_world(world)
+    try:
+        with np.load(traj, allow_pickle=False) as npz:
+            data = {key: np.asarray(npz[key]) for key in npz.files}
+    except (OSError, EOFError, ValueError, zipfile.BadZipFile, zlib.error) as e:
+        raise ValueError(f"{traj}: not a readable .npz archive ({e})") from e
+    t = _array(data, "t", (None,), traj)
+    q = _array(data, "q", (None, 20), traj)
+    q_des = _array(data, "q_des", (None, 20), traj)
+    tip_des = _array(data, "tip_des", (None, 3), traj)
+    sensed = _array(data, "sensed", (None, None, 3), traj, finite=False) if "sensed" in data else None
+    n = len(t)
+    if n == 0:
+        raise ValueError(f"{traj}: holds no samples (the trial recorded no control step)")
+    lengths = {"q": len(q), "q_des": len(q_des), "tip_des": len(tip_des)}
+    if sensed is not None:
+        lengths["sensed"] = len(sensed)
+    for key, m in lengths.items():
+        if m != n:
+            raise ValueError(f"{traj}: {key} has {m} samples but t has {n}")
+    if n > 1 and not (np.diff(t) > 0).all():
+        raise ValueError(f"{traj}: t must increase from sample to sample")
+    result = None
+    rfile = run / RESULT_FILE
+    if rfile.is_file():
+        try:
+            result = json.loads(rfile.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as e:
+            raise ValueError(f"{rfile}: not readable JSON ({e})") from e
+        if not isinstance(result, dict):
+            raise ValueError(f"{rfile}: expected a JSON object")
+    return RunData(path=run, world=world, t=t, q=q, q_des=q_des, tip_des=tip_des, result=result, sensed=sensed)
+
+
+__all__ = ["RunData", "WorldError", "load_run", "write_run_world"]

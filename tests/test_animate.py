@@ -1,0 +1,252 @@
+"""Animations (navstack.animate, ``navstack animate``) and the run folder they read (navstack.rundir)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import imageio.v2 as imageio
+import numpy as np
+import pytest
+
+from navstack import animate
+from navstack.animate import AnimationConfig, Replay, animate_run, choose_view, contacts_per_sample, frame_times
+from navstack.cli import main
+from navstack.jpl import jpl_serpentine
+from navstack.render import CONTACT_RGBA
+from navstack.rundir import load_run, write_run_world
+from navstack.trial import run_trial
+from navstack.truss import PAPER_BASE_RPY
+from navstack.world import Mesh, world_from_dict
+
+SMALL = AnimationConfig(fps=10, width=320, height=192, hold=0.5)
+
+
+def _tip(world_dict: dict, q: np.ndarray) -> np.ndarray:
+    w = world_from_dict(world_dict)
+    T0 = w.robot.base.transform()
+    return T0[:3, :3] @ jpl_serpentine().frames(q)[21, :3, 3] + T0[:3, 3]
+
+
+def straight_world(contact: bool = True) -> dict:
+    """The lathe pushes the straight serpentine along +x between four members; with ``contact`` a sphere
+    sits on the tip's way in the last part of the run."""
+    chain = jpl_serpentine()
+    base = {"robot": {"base": {"position": [0.0, 0.0, 0.3], "rpy": list(PAPER_BASE_RPY)}}}
+    start = _tip({"format": "navstack-world/1", "name": "x", "obstacles": [],
+                  "goals": [{"position": [0, 0, 0]}], **base}, chain.q_default)
+    obstacles = [{"type": "cylinder", "p0": (start + [0.0, dy, dz]).tolist(), "p1": (start + [0.5, dy, dz]).tolist(),
+                  "radius": 0.02} for dy in (-0.15, 0.15) for dz in (-0.15, 0.15)]
+    if contact:
+        obstacles.append({"type": "sphere", "center": (start + [0.36, 0.0, 0.0]).tolist(), "radius": 0.05})
+    return {"format": "navstack-world/1", "name": "straight", "obstacles": obstacles,
+            "goals": [{"position": (start + [0.2, 0, 0]).tolist()}, {"position": (start + [0.4, 0, 0]).tolist()}],
+            "time_limit": 10.0, **base}
+
+
+def synthetic_run(folder: Path, n: int = 31, contact: bool = True) -> Path:
+    """A run folder as navstack run writes it, without simulating: the lathe moves 0.4 m in ``n`` samples."""
+    wd = straight_world(contact)
+    world = world_from_dict(wd)
+    chain = jpl_serpentine()
+    q = np.tile(chain.q_default, (n, 1))
+    q[:, 0] = np.linspace(0.0, 0.4, n)
+    tips = np.array([_tip(wd, qi) for qi in q])
+    folder.mkdir(parents=True, exist_ok=True)
+    write_run_world(world, folder)
+    np.savez_compressed(folder / "trajectory.npz", t=np.arange(n) / 15.0, q=q, q_des=q, tip_des=tips)
+    result = {"world": "straight", "seed": 0, "controller": "slither", "planner": "scripted", "success": False,
+              "reason": "collision" if contact else "reached", "goals_reached": 2, "sim_time": (n - 1) / 15.0,
+              "steps": n - 1, "wall_time": 0.1,
+              "metrics": {"tip_error_max": 0.0, "slither_deviation_max": 0.0, "min_clearance": -0.01, "contacts": 5}}
+    (folder / "result.json").write_text(json.dumps(result))
+    return folder
+
+
+def _red_pixels(rgb: np.ndarray) -> int:
+    r, g, b = (rgb[..., k].astype(int) for k in range(3))
+    return int(((r > 150) & (g < 70) & (b < 70)).sum())
+
+
+@pytest.fixture(scope="module")
+def contact_trial(tmp_path_factory):
+    """A real closed-loop trial whose tip goes straight through a sphere (scripted planner, no sensing)."""
+    out = tmp_path_factory.mktemp("contact")
+    result = run_trial(straight_world(), controller="slither", planner="scripted", out_dir=out)
+    assert result.reason == "collision" and result.metrics["contacts"] > 0
+    return result, out
+
+
+def test_run_folder_holds_the_world_and_reads_back(contact_trial):
+    result, out = contact_trial
+    run = load_run(out)
+    assert run.world == world_from_dict(straight_world())
+    assert run.result == json.loads((out / "result.json").read_text())
+    assert len(run.t) == result.steps + 1 and run.q.shape == (len(run.t), 20)
+
+
+def test_replayed_contacts_match_the_trial_metric(contact_trial):
+    """Contact recomputed per sample from the replayed joints agrees with the trial's own count."""
+    result, out = contact_trial
+    contacts = contacts_per_sample(load_run(out))
+    assert sum(1 for c in contacts if c) == result.metrics["contacts"]
+    assert all(k >= 8 for c in contacts for k in c)  # the serpentine's links (PyBullet link = DH frame - 1)
+
+
+def test_mesh_obstacles_are_copied_into_the_run_folder(tmp_path):
+    import trimesh
+
+    src = tmp_path / "src"
+    (src / "parts").mkdir(parents=True)
+    trimesh.creation.box(extents=[0.1, 0.1, 0.1]).export(src / "parts" / "block.stl")
+    wd = straight_world(contact=False)
+    wd["obstacles"].append({"type": "mesh", "path": "parts/block.stl", "position": [0.0, 2.0, 0.5]})
+    (src / "w.json").write_text(json.dumps(wd))
+    run_dir = tmp_path / "run"
+    run_trial(src / "w.json", planner="scripted", out_dir=run_dir, config=None)
+    text = json.loads((run_dir / "world.json").read_text())
+    assert text["obstacles"][-1]["path"] == "meshes/004-block.stl"
+    assert (run_dir / "meshes" / "004-block.stl").read_bytes() == (src / "parts" / "block.stl").read_bytes()
+    moved = tmp_path / "elsewhere"
+    shutil.move(run_dir, moved)
+    shutil.rmtree(src)  # the run folder no longer needs the original world's folder
+    mesh = load_run(moved).world.obstacles[-1]
+    assert isinstance(mesh, Mesh) and mesh.path == (moved / "meshes" / "004-block.stl").resolve()
+
+
+def test_frame_times_cover_the_run_and_end_on_its_last_sample():
+    t = frame_times(2.05, AnimationConfig(fps=10))
+    assert t[0] == 0.0 and t[-1] == pytest.approx(2.05) and len(t) == 22
+    np.testing.assert_allclose(np.diff(t[:-1]), 0.1)
+    assert len(frame_times(2.0, AnimationConfig(fps=10, speed=2.0))) == 11
+
+
+def test_replay_paints_touching_links_red(tmp_path):
+    run = load_run(synthetic_run(tmp_path / "run"))
+    replay = Replay(run, choose_view(run, SMALL), SMALL.width, SMALL.height)
+    try:
+        first, touching0 = replay.frame(run.q[0])
+        last, touching1 = replay.frame(run.q[-1])
+    finally:
+        replay.close()
+    assert not touching0 and touching1
+    assert _red_pixels(first) == 0
+    assert _red_pixels(last) > 20
+    assert CONTACT_RGBA[0] > 0.8
+
+
+def test_mp4_has_every_frame_and_shows_motion(tmp_path):
+    run_dir = synthetic_run(tmp_path / "run")
+    out = animate_run(run_dir, tmp_path / "a.mp4", SMALL)
+    assert out == tmp_path / "a.mp4" and not list(tmp_path.glob("*.part*"))
+    reader = imageio.get_reader(out)
+    n = reader.count_frames()
+    expected = len(frame_times(2.0, SMALL)) + round(SMALL.hold * SMALL.fps)
+    assert n == expected
+    assert reader.get_meta_data()["fps"] == pytest.approx(SMALL.fps)
+    first, last = reader.get_data(0), reader.get_data(n - 1)
+    assert first.shape == (SMALL.height, SMALL.width, 3)
+    assert first.std() > 10  # not a blank picture
+    assert np.abs(first.astype(int) - last.astype(int)).mean() > 1.0  # the robot moved, the caption changed
+    reader.close()
+
+
+def test_gif_fallback_without_ffmpeg(tmp_path, monkeypatch):
+    from PIL import Image
+
+    monkeypatch.setattr(animate, "_ffmpeg_available", lambda: False)
+    run_dir = synthetic_run(tmp_path / "run", n=11)
+    out = animate_run(run_dir, config=SMALL)
+    assert out == run_dir / "animation.gif"
+    n = len(frame_times(10 / 15.0, SMALL))
+    with Image.open(out) as im:
+        assert im.n_frames == n and im.size == (SMALL.width, SMALL.height)
+        durations = []
+        for k in range(n):
+            im.seek(k)
+            durations.append(im.info["duration"])
+    assert durations == [100] * (n - 1) + [100 * (1 + round(SMALL.hold * SMALL.fps))]  # the last frame is held
+
+
+def test_cli_animate_and_its_errors(tmp_path, capsys):
+    run_dir = synthetic_run(tmp_path / "run", n=11)
+    assert main(["animate", str(run_dir), "--fps", "5", "--size", "320x192", "--view", "side"]) == 0
+    out = capsys.readouterr().out
+    assert "animation.mp4" in out and "animated in" in out and (run_dir / "animation.mp4").is_file()
+    assert main(["animate", str(run_dir), "--eye", "3", "-2", "1", "--target", "0", "0", "0.5", "--size", "320x192",
+                 "--out", str(tmp_path / "e.gif")]) == 0
+    assert (tmp_path / "e.gif").is_file()
+    capsys.readouterr()
+    for argv, words in [
+        (["animate", str(tmp_path / "nope")], "not a folder"),
+        (["animate", str(run_dir), "--size", "300x200"], "multiple of 16"),
+        (["animate", str(run_dir), "--size", "big"], "WIDTHxHEIGHT"),
+        (["animate", str(run_dir), "--fps", "0"], "fps"),
+        (["animate", str(run_dir), "--out", str(tmp_path / "a.avi")], ".mp4 or .gif"),
+        (["animate", str(run_dir), "--eye", "1", "2", "3"], "eye and target go together"),
+        (["animate", str(run_dir), "--eye", "0", "0", "5", "--target", "0", "0", "0"], "straight down"),
+    ]:
+        assert main(argv) == 2, argv
+        assert words in capsys.readouterr().err, argv
+
+
+def test_load_run_names_what_is_wrong(tmp_path):
+    run_dir = synthetic_run(tmp_path / "run", n=5)
+    (run_dir / "world.json").rename(tmp_path / "w.json")
+    with pytest.raises(ValueError, match="no world.json.*--world"):
+        load_run(run_dir)
+    assert load_run(run_dir, tmp_path / "w.json").world.name == "straight"
+    good = dict(np.load(run_dir / "trajectory.npz"))
+    for change, words in [
+        ({"q": good["q"][:, :19]}, r"'q' has shape \(5, 19\)"),
+        ({"tip_des": good["tip_des"][:4]}, "tip_des has 4 samples but t has 5"),
+        ({"t": good["t"][::-1].copy()}, "t must increase"),
+        ({"q_des": np.full((5, 20), np.nan)}, "'q_des' holds NaN"),
+    ]:
+        np.savez(run_dir / "trajectory.npz", **{**good, **change})
+        with pytest.raises(ValueError, match=words):
+            load_run(run_dir, tmp_path / "w.json")
+    (run_dir / "trajectory.npz").write_bytes(b"not a zip")
+    with pytest.raises(ValueError, match="not a readable .npz"):
+        load_run(run_dir, tmp_path / "w.json")
+
+
+def test_animation_config_checks_its_fields():
+    for kw, words in [({"width": 100}, "width"), ({"speed": -1}, "speed"), ({"view": "under"}, "view"),
+                      ({"fps": float("nan")}, "fps"), ({"target": (0, 0, 0)}, "together")]:
+        with pytest.raises(ValueError, match=words):
+            AnimationConfig(**kw)
+
+
+def test_cli_run_animate(tmp_path, capsys):
+    world = tmp_path / "straight.json"
+    world.write_text(json.dumps(straight_world(contact=False)))
+    out = tmp_path / "run"
+    assert main(["run", str(world), "--out", str(out), "--planner", "scripted", "--animate", "--render"]) == 0
+    printed = capsys.readouterr().out
+    assert "world.json, scene.png" in printed and "animation.mp4" in printed
+    reader = imageio.get_reader(out / "animation.mp4")
+    run = load_run(out)
+    assert reader.count_frames() == len(frame_times(run.duration, AnimationConfig())) + 22  # 1.5 s held at 15 fps
+    reader.close()
+
+
+def test_robot_rectangle_render_equals_the_full_render(contact_trial):
+    """The per-frame shortcut (render only the robot's pixel rectangle) gives the same picture as
+    rendering the whole frame."""
+    _, out = contact_trial
+    run = load_run(out)
+    cfg = AnimationConfig(width=480, height=272)
+    replay = Replay(run, choose_view(run, cfg), cfg.width, cfg.height)
+    try:
+        for i in np.linspace(0, len(run.t) - 1, 5).astype(int):
+            fast, touching = replay.frame(run.q[i])
+            full, touching_full = replay.frame(run.q[i], full=True)
+            assert touching == touching_full
+            box = replay.robot_box(run.q[i])
+            assert box is not None and (box[2] - box[0]) * (box[3] - box[1]) < 0.8 * cfg.width * cfg.height
+            differ = np.abs(fast.astype(int) - full.astype(int)).max(axis=-1) > 2
+            assert differ.sum() <= 5, (i, differ.sum())
+    finally:
+        replay.close()

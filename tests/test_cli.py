@@ -1,0 +1,66 @@
+"""What a newcomer sees of the command line: help texts, --version, what `run --render` wrote."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+import navstack
+from navstack.cli import main
+from navstack.registry import FAMILIES
+from navstack.truss import paper_truss_world
+
+
+def help_text(capsys, *argv: str) -> str:
+    with pytest.raises(SystemExit) as ei:
+        main([*argv, "--help"])
+    assert ei.value.code == 0
+    return capsys.readouterr().out
+
+
+def test_top_level_help_is_plain_text(capsys):
+    out = help_text(capsys)
+    assert "``" not in out and ":func:" not in out
+    assert out.count("navstack: sensor-based slithering control") == 1
+    assert "exit status: 0" in out and "2 bad input" in out and "1 internal error" in out
+    for command in ("demo", "run", "check-world", "generate", "trials", "report", "model"):
+        assert f"\n    {command}" in out
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as ei:
+        main(["--version"])
+    assert ei.value.code == 0
+    assert capsys.readouterr().out.strip() == f"navstack {navstack.__version__}"
+
+
+@pytest.mark.parametrize("command", ["generate", "trials"])
+def test_help_lists_the_families_with_their_difficulty(capsys, command):
+    out = " ".join(help_text(capsys, command).split())  # argparse may wrap lines
+    for entry in FAMILIES.values():
+        assert f"{entry.name} {entry.summary}" in out
+        assert f"difficulty: {entry.difficulty}" in out
+
+
+def test_generate_refuses_an_unknown_family(capsys, tmp_path):
+    assert main(["generate", "trusss", "--seed", "1", "--out", str(tmp_path / "x.json")]) == 2
+    err = capsys.readouterr().err
+    assert "trusss" in err and "truss" in err
+
+
+def test_negative_seed_is_bad_input(capsys):
+    with pytest.raises(SystemExit) as ei:
+        main(["run", "w.json", "--out", "o", "--seed", "-1"])
+    assert ei.value.code == 2
+    assert "non-negative integer" in capsys.readouterr().err
+
+
+def test_run_render_says_it_wrote_scene_png(tmp_path, capsys):
+    world = tmp_path / "w.json"
+    world.write_text(json.dumps({**paper_truss_world(), "time_limit": 0.2}))
+    out = tmp_path / "out"
+    assert main(["run", str(world), "--out", str(out), "--planner", "scripted", "--render"]) == 0
+    printed = capsys.readouterr().out
+    assert f"wrote {out / 'result.json'}, trajectory.npz, world.json, scene.png" in printed
+    assert (out / "scene.png").stat().st_size > 0

@@ -1,0 +1,174 @@
+"""Issue 8: no wrong answer from any input.  One test per item of the issue (3 is the sweep's).
+
+Each of these failed on the code before the change (checked by hand, see the branch's report).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import pytest
+import trimesh
+from _worlds import BASE_POSITION, ROBOT, TIP, world_data
+
+import navstack.trial
+from navstack.cli import main
+from navstack.trial import TrialInputError, check_start, run_trial
+from navstack.world import WorldError, load_world, world_from_dict
+
+
+def write(path: Path, data: dict) -> str:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(data))
+    return str(path)
+
+
+@pytest.fixture
+def no_simulation(monkeypatch):
+    """Fail loudly if a trial gets as far as simulating."""
+    def refuse(*args, **kwargs):
+        raise AssertionError("the trial was simulated")
+
+    monkeypatch.setattr(navstack.trial, "_Simulation", refuse)
+
+
+# ---- 1. a robot inside a huge obstacle: never a success ----------------------------------------------
+
+ENGULFING = {
+    "sphere": {"type": "sphere", "center": BASE_POSITION.tolist(), "radius": 500.0},
+    "box": {"type": "box", "center": BASE_POSITION.tolist(), "half_extents": [500.0, 500.0, 500.0]},
+    "cylinder": {"type": "cylinder", "p0": [-900.0, 0.0, 0.0], "p1": [900.0, 0.0, 0.0], "radius": 900.0},
+    "small-at-tip": {"type": "sphere", "center": TIP.tolist(), "radius": 0.01},
+}
+
+
+@pytest.mark.parametrize("kind", list(ENGULFING))
+def test_robot_starting_inside_or_touching_an_obstacle_is_refused(kind, tmp_path, capsys, no_simulation):
+    data = world_data(ENGULFING[kind])
+    with pytest.raises(WorldError) as ei:
+        run_trial(world_from_dict(data), planner="scripted")  # library users get the check too
+    assert ei.value.json_path == "obstacles[1]"
+    world = write(tmp_path / "inside.json", data)
+    out = tmp_path / "out"
+    assert main(["run", world, "--out", str(out), "--planner", "scripted"]) == 2
+    err = capsys.readouterr().err
+    assert "inside.json: obstacles[1]: the robot at q0" in err and "start clear of every obstacle" in err
+    assert not (out / "result.json").exists()
+    assert main(["check-world", world]) == 2
+    assert "obstacles[1]" in capsys.readouterr().err
+
+
+def test_radius_1e308_is_refused_at_its_field(tmp_path, capsys):
+    huge = dict(ENGULFING["sphere"], radius=1e308)
+    world = write(tmp_path / "huge.json", world_data(huge))
+    assert main(["check-world", world]) == 2
+    assert "huge.json: obstacles[1].radius: expected a positive number in [0.0001, 1000] m" in capsys.readouterr().err
+
+
+def test_clear_start_is_accepted(tmp_path, capsys):
+    world = write(tmp_path / "clear.json", world_data(dict(ENGULFING["small-at-tip"],
+                                                           center=(TIP + [0.0, 0.0, 0.2]).tolist())))
+    assert main(["check-world", world]) == 0
+    assert "robot clear of every obstacle" in capsys.readouterr().out
+    check_start(load_world(world))
+
+
+# ---- 2. time_limit bounded; an exception inside `run` exits 1 -----------------------------------------
+
+def test_time_limit_is_bounded(tmp_path, capsys, no_simulation):
+    world = write(tmp_path / "long.json", world_data(time_limit=1e308))
+    assert main(["run", world, "--out", str(tmp_path / "o")]) == 2
+    assert "long.json: time_limit: expected a positive number in (0, 3600] s" in capsys.readouterr().err
+    assert main(["run", write(tmp_path / "hour.json", world_data(time_limit=3600.5)), "--out", str(tmp_path)]) == 2
+
+
+def test_an_exception_in_the_simulation_exits_1_and_is_recorded(tmp_path, capsys, monkeypatch):
+    def boom(self):
+        raise OverflowError("cannot convert float infinity to integer")
+
+    monkeypatch.setattr(navstack.trial._Simulation, "run", boom)
+    world = write(tmp_path / "w.json", world_data())
+    out = tmp_path / "out"
+    assert main(["run", world, "--out", str(out), "--planner", "scripted"]) == 1
+    captured = capsys.readouterr()
+    assert "FAILURE (error)" in captured.out
+    assert "internal error during the simulation" in captured.err and "OverflowError" in captured.err
+    result = json.loads((out / "result.json").read_text())  # the spec keeps reason "error" in result.json
+    assert result["reason"] == "error" and not result["success"] and "OverflowError" in result["error"]
+
+
+def test_a_value_error_that_is_not_the_input_exits_1(tmp_path, capsys, monkeypatch):
+    def broken(*args, **kwargs):
+        raise ValueError("a bug, not the user's input")
+
+    monkeypatch.setattr(navstack.trial, "_Simulation", broken)
+    assert main(["run", write(tmp_path / "w.json", world_data()), "--out", str(tmp_path / "o")]) == 1
+    assert "internal error: ValueError: a bug" in capsys.readouterr().err
+
+
+# ---- 4. mesh paths stay inside the world's folder ------------------------------------------------------
+
+def test_mesh_outside_the_world_folder_needs_the_option(tmp_path, capsys):
+    trimesh.creation.box(extents=(0.1, 0.1, 0.1)).export(tmp_path / "x.stl")
+    mesh = {"type": "mesh", "path": "../x.stl", "position": (TIP + [0.0, 0.0, 1.0]).tolist()}
+    world = write(tmp_path / "w" / "world.json", world_data(mesh))
+    assert main(["check-world", world]) == 2
+    err = capsys.readouterr().err
+    assert "world.json: obstacles[1].path: expected a mesh inside the world file's folder" in err
+    assert main(["check-world", "--allow-mesh-outside", world]) == 0
+    absolute = write(tmp_path / "w" / "abs.json", world_data(dict(mesh, path=str(tmp_path / "x.stl"))))
+    assert main(["check-world", absolute]) == 2
+    assert "absolute path" in capsys.readouterr().err
+
+
+# ---- 5. an unwritable --out is found before simulating ----------------------------------------------
+
+def test_unwritable_out_is_refused_before_simulating(tmp_path, capsys, no_simulation):
+    if os.geteuid() == 0:  # root writes through permissions: use a folder no one can create files in
+        out = Path("/proc/self")
+    else:
+        out = tmp_path / "locked"
+        out.mkdir()
+        out.chmod(0o555)
+    world = write(tmp_path / "w.json", world_data())
+    assert main(["run", world, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"navstack run: error: cannot write into the output folder {out} (")
+    assert err.endswith("); choose another --out") and "Errno" not in err and "\n" not in err
+    with pytest.raises(TrialInputError, match="cannot write into the output folder"):
+        run_trial(world, out_dir=out)
+
+
+# ---- 6. size limits and file kinds ----------------------------------------------------------------
+
+def test_world_size_and_kind_limits_on_the_command_line(tmp_path, capsys):
+    big = tmp_path / "big.json"
+    with open(big, "wb") as fh:
+        fh.truncate(200 * 1024 * 1024)  # sparse: refused from its size, never read
+    assert main(["check-world", str(big), "/dev/zero", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "big.json: (top level): the file is 200.0 MiB, more than the 64 MiB a world file may have" in err
+    assert "/dev/zero: (top level): expected a regular file, got a character device" in err
+    assert "expected a regular file, got a directory" in err
+    small = write(tmp_path / "small.json", world_data())
+    assert main(["check-world", "--max-world-mb", "0.0001", small]) == 2
+    assert "--max-world-mb" in capsys.readouterr().err
+    assert main(["check-world", "--max-world-mb", "1", small]) == 0
+
+
+# ---- 7. every message names the field that is wrong ---------------------------------------------------
+
+def test_a_huge_base_position_is_blamed_on_the_base(tmp_path, capsys):
+    data = world_data()
+    data["robot"] = {**ROBOT, "base": {**ROBOT["base"], "position": [1e308, 0.0, 0.3]}}
+    assert main(["check-world", write(tmp_path / "base.json", data)]) == 2
+    err = capsys.readouterr().err
+    assert "base.json: robot.base.position[0]: expected a finite number in [-1000, 1000] m" in err
+    assert "goals" not in err
+    # inside the bounds but far from every goal: the goal is named, and the base that placed the robot
+    data["robot"]["base"]["position"] = [900.0, 0.0, 0.3]
+    assert main(["check-world", write(tmp_path / "base.json", data)]) == 2
+    err = capsys.readouterr().err
+    assert "goals[0].position" in err and "robot.base" in err

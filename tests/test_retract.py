@@ -1,0 +1,110 @@
+"""``retract`` worlds (interfaces.md section 2a): the key in world files, and the closed loop backing out
+along its own path in PyBullet."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from navstack import jpl_serpentine
+from navstack.jpl import BACKBONE_FRAMES
+from navstack.path import PathMemory
+from navstack.trial import RETRACT_TOLERANCE, run_trial
+from navstack.truss import paper_truss_world
+from navstack.world import WorldError, load_world, world_from_dict
+
+WORLDS = Path(__file__).resolve().parents[1] / "worlds"
+CHAIN = jpl_serpentine()
+
+
+# ---------------------------------------------------------------- the world key
+def test_retract_key_parses_round_trips_and_defaults_to_false(tmp_path):
+    assert world_from_dict(paper_truss_world()).retract is False
+    w = world_from_dict(paper_truss_world(retract=True))
+    assert w.retract is True and w.to_dict()["retract"] is True
+    assert world_from_dict(w.to_dict()) == w
+    assert "retract" not in world_from_dict(paper_truss_world()).to_dict()
+    data = paper_truss_world()
+    data["retract"] = False
+    assert world_from_dict(data).retract is False
+    for bad in (1, "yes", None):
+        data["retract"] = bad
+        with pytest.raises(WorldError, match="retract: expected true or false"):
+            world_from_dict(data)
+
+
+def test_the_retract_world_file_is_the_generator_output():
+    expected = world_from_dict(paper_truss_world(name="paper-truss-retract", retract=True, time_limit=90.0))
+    assert load_world(WORLDS / "paper_truss_retract.json") == expected
+
+
+# ---------------------------------------------------------------- closed loop
+def _backbone_world(world, q: np.ndarray) -> np.ndarray:
+    T0 = world.robot.base.transform()
+    return CHAIN.frames(q)[BACKBONE_FRAMES, :3, 3] @ T0[:3, :3].T + T0[:3, 3]
+
+
+def _deviation_both_ways(world, out_dir: Path) -> tuple[float, float]:
+    """Largest distance [m] of the measured joint points J1..J6 from the path recorded on the way in,
+    before and after the retraction starts (recomputed from trajectory.npz, independently of the trial)."""
+    tr = np.load(out_dir / "trajectory.npz")
+    tip_des, q = tr["tip_des"], tr["q"]
+    path = PathMemory(_backbone_world(world, q[0]))
+    # the retraction starts, once the last goal is reached, with one period holding the last command
+    tips = np.array([_backbone_world(world, qk)[0] for qk in q])
+    last = world.goals[-1]
+    k_goal = int(np.flatnonzero(np.linalg.norm(tips - last.position, axis=1) <= last.tolerance)[0])
+    repeated = np.flatnonzero(np.all(tip_des[1:] == tip_des[:-1], axis=1)) + 1
+    k_turn = int(repeated[repeated >= k_goal][0])
+    for x in tip_des[1:k_turn + 1]:
+        path.record(x)
+
+    def worst(qs: np.ndarray) -> float:
+        return max(path.distance_to_path(p) for qk in qs for p in _backbone_world(world, qk)[1:])
+
+    return worst(q[: k_turn + 1]), worst(q[k_turn + 1 :])
+
+
+@pytest.mark.slow
+def test_paper_truss_in_up_out_and_back_out_of_the_entry(tmp_path):
+    world = load_world(WORLDS / "paper_truss_retract.json")
+    r = run_trial(world, controller="slither", planner="field", out_dir=tmp_path)
+    m = r.metrics
+    dev_in, dev_out = _deviation_both_ways(world, tmp_path)
+    print(f"retract slither/field: {r.reason}, retracted {r.retracted}, sim {r.sim_time:.1f} s, metrics {m}, "
+          f"deviation in {dev_in * 1e3:.3f} mm, out {dev_out * 1e3:.3f} mm")
+    assert r.success and r.reason == "reached" and r.retracted is True and r.goals_reached == 4
+    assert m["contacts"] == 0 and m["min_clearance"] > 0.0
+    # the issue asks below 1 mm both ways; measured 0.027 mm both ways (servo with gravity feed-forward):
+    # bound at 0.1 mm, so losing the feed-forward (0.83 mm) fails here too
+    assert m["slither_deviation_max"] < 1e-4 and dev_in < 1e-4 and dev_out < 1e-4
+    data = json.loads((tmp_path / "result.json").read_text())
+    assert data["retracted"] is True
+    q_end = np.load(tmp_path / "trajectory.npz")["q"][-1]
+    tip0 = _backbone_world(world, world.robot.q0)[0]
+    assert np.linalg.norm(_backbone_world(world, q_end)[0] - tip0) <= RETRACT_TOLERANCE
+
+
+@pytest.mark.slow
+def test_the_tip_only_baseline_retracts_too_but_its_body_cuts_the_truss():
+    r = run_trial(load_world(WORLDS / "paper_truss_retract.json"), controller="tip-only", planner="scripted")
+    print(f"retract tip-only/scripted: {r.reason}, retracted {r.retracted}, metrics {r.metrics}")
+    assert r.retracted is True and r.reason == "collision" and not r.success
+    assert r.metrics["contacts"] > 0
+
+
+@pytest.mark.slow
+def test_running_out_of_time_while_retracting_is_a_timeout(tmp_path):
+    data = paper_truss_world(retract=True, time_limit=26.0)  # the way in takes about 22 s
+    r = run_trial(world_from_dict(data), planner="scripted", out_dir=tmp_path)
+    assert r.goals_reached == 4 and r.reason == "timeout" and not r.success and r.retracted is False
+    assert json.loads((tmp_path / "result.json").read_text())["retracted"] is False
+
+
+def test_worlds_without_retract_write_no_retracted_field(tmp_path):
+    data = paper_truss_world(time_limit=2.0)
+    r = run_trial(world_from_dict(data), planner="scripted", out_dir=tmp_path)
+    assert r.retracted is None and "retracted" not in json.loads((tmp_path / "result.json").read_text())
