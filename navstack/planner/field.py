@@ -28,12 +28,14 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from navstack.planner.escape import CommandPath, EscapeConfig, Retreat, find_branch_point
+from navstack.path import PathMemory
+from navstack.planner.escape import EscapeConfig, find_branch_point
 from navstack.planner.map import MapConfig, SensedMap
 from navstack.planner.potential import NavigationFunction, Repulsion, navigation_function
 from navstack.planner.search import NO_PATH, REACHED, Plan, SearchConfig, navigation_region, search
 from navstack.planner.steering import PlanFollower, SteeringConfig
 from navstack.planner.types import TipCommand
+from navstack.retreat import Retreat
 
 __all__ = ["FieldPlanner", "FieldPlannerConfig"]
 
@@ -48,6 +50,7 @@ class FieldPlannerConfig:
         ray_start: rays mark free space from this distance from the tip [m].
         urgent_margin: a new surface point within the blocking radius plus this of the plan ahead
             forces a replan at once [m].
+        path_spacing: vertex spacing of the record of the commanded path: the controller's [m].
         nav_period: the navigation function is recomputed at least this often while the map
             changes [s] (and whenever the next goal changes, or a search fails with the old one).
     """
@@ -62,6 +65,7 @@ class FieldPlannerConfig:
     ray_start: float = 0.03
     urgent_margin: float = 0.005
     nav_period: float = 1.0
+    path_spacing: float = 1e-3
 
     def __post_init__(self) -> None:
         for name in ("replan_period", "horizon", "ray_start", "urgent_margin", "nav_period"):
@@ -101,7 +105,9 @@ class FieldPlanner:
             raise ValueError("goals must be (k >= 1, 3) finite positions with k tolerances")
         box = np.vstack([self.start, self.goals])
         self.map = SensedMap(box.min(axis=0), box.max(axis=0), cfg.map)
-        self.path = CommandPath(self.start)
+        unit = h / np.linalg.norm(h)
+        backbone = self.start - np.outer(np.arange(7), unit) * cfg.search.link_length
+        self.path = PathMemory(backbone, link_length=cfg.search.link_length, spacing=cfg.path_spacing)
         self.time = 0.0
         self._nav: tuple[int, int, NavigationFunction, float] | None = None
         self.command_goal = 0
@@ -139,10 +145,16 @@ class FieldPlanner:
         cfg = self.config
         k = self._passed(p, k)
         plan = search(self.map, p, h, self.goals, self.tolerances, k, cfg.search, cfg.repulsion,
-                      history=self.path.tail(cfg.search.link_length * 1.5), nav=self._navigation(p, k, fresh))
+                      history=self._tail(1.5 * cfg.search.link_length), nav=self._navigation(p, k, fresh))
         if plan.status != REACHED and not fresh:
             return self._plan_from(p, h, k, fresh=True)
         return plan
+
+    def _tail(self, length: float, spacing: float = 0.01) -> NDArray[np.float64]:
+        """The last ``length`` [m] of the commanded path every ``spacing`` [m], oldest first, ending at its end."""
+        end = self.path.end_arc_length
+        s = np.append(np.arange(max(end - length, 0.0), end, spacing), end)
+        return np.array([self.path.point_at(x)[0] for x in s])
 
     def _passed(self, p: NDArray[np.float64], k: int) -> int:
         """Goals from ``k`` on that the command ``p`` is within reach of (already there)."""
@@ -161,7 +173,7 @@ class FieldPlanner:
         """
         self.goal_index = int(goal_index)
         if self.goal_index > self.command_goal or (
-                self.command_goal > self.goal_index and self.path.length - self._command_goal_s >= 0.1):
+                self.command_goal > self.goal_index and self.path.end_arc_length - self._command_goal_s >= 0.1):
             self.command_goal = self.goal_index
             return True
         return False
@@ -179,8 +191,8 @@ class FieldPlanner:
 
     def _start_escape(self) -> None:
         # a new escape soon after the last branch point must go back beyond it (no retreat cycles)
-        limit = self.path.length
-        if self._last_branch is not None and self.path.length - self._last_branch < 0.3:
+        limit = self.path.end_arc_length
+        if self._last_branch is not None and limit - self._last_branch < 0.3:
             limit = self._last_branch - self.config.escape.step
         found = find_branch_point(self.path, lambda p, h: self._plan_from(p, h, self.command_goal, fresh=True),
                                   self.config.escape, before=limit)
@@ -192,7 +204,7 @@ class FieldPlanner:
         s, plan = found
         self._last_branch = s
         self._pending = (s, plan)
-        self.retreat = Retreat(self.path, s, self.config.escape)
+        self.retreat = Retreat(self.path, s, self.config.escape.speed, self.config.escape.accel)
         self.mode = "retreat"
 
     def _needs_replan(self) -> bool:
@@ -234,8 +246,7 @@ class FieldPlanner:
         self.map.mark_free(tip, self.config.repulsion.body_radius)
         changed = self._sync_goals(goal_index)
         if self.stalled:
-            p = self.path.point(self.path.length)
-            return TipCommand(p, np.zeros(3), True, "stalled")
+            return TipCommand(self.path.head, np.zeros(3), True, "stalled")
         if self.retreat is not None:
             return self._step_retreat(dt)
         if changed or self._needs_replan():
@@ -250,19 +261,18 @@ class FieldPlanner:
         k = self._passed(p, self.command_goal)
         if k != self.command_goal:
             self.command_goal = k
-            self._command_goal_s = self.path.length
+            self._command_goal_s = self.path.end_arc_length
         self.mode = "plan" if self.follower.plan.status == REACHED else "explore"
         return TipCommand(p, v, False, self.mode)
 
     def step_hold(self, dt: float) -> TipCommand:
         """Hold the command where it is (the step on which an escape starts or the planner gives up)."""
-        p = self.path.point(self.path.length)
-        return TipCommand(p, np.zeros(3), self.stalled, self.mode)
+        return TipCommand(self.path.head, np.zeros(3), self.stalled, self.mode)
 
     def _step_retreat(self, dt: float) -> TipCommand:
         r = self.retreat
         assert r is not None
-        p, v = r.step(dt)
+        cmd = r.step(dt)
         if r.done:
             s, plan = self._pending  # type: ignore[misc]
             self.path.truncate(s)
@@ -271,4 +281,4 @@ class FieldPlanner:
             self.follower = PlanFollower(plan, self.config.steering, 0.0)
             self._planned_version = -1  # the map has grown while backing out: replan now
             self._planned_at = -math.inf
-        return TipCommand(p, v, False, "retreat", reverse=True)
+        return cmd
