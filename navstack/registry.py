@@ -166,14 +166,14 @@ register_planner(
     "navstack.trial:make_scripted_planner", senses=False)
 
 register_family("truss", "the paper's box-bay truss, displaced from its drawing; goals at every opening",
-                "navstack.generate:family_truss", seed_id=0,
+                "navstack.generate.truss_families:family_truss", seed_id=0,
                 difficulty="displacement up to 6 cm / 3 deg, bay 0.5 -> 0.42 m, members 2 -> 2.5 cm")
 register_family("cluttered-truss", "truss plus unmodelled cables and equipment boxes near the path",
-                "navstack.generate:family_cluttered_truss", seed_id=1,
+                "navstack.generate.truss_families:family_cluttered_truss", seed_id=1,
                 difficulty="as truss, plus more and closer clutter")
 register_family("pipe-rack", "2-3 layers of horizontal pipes, a goal at each crossing",
-                "navstack.generate:family_pipe_rack", seed_id=2,
+                "navstack.generate.pipe_rack:family_pipe_rack", seed_id=2,
                 difficulty="gap 0.25 -> 0.13 m")
 register_family("sphere-field", "spheres beside a bumped path, via goals on the bump",
-                "navstack.generate:family_sphere_field", seed_id=3,
+                "navstack.generate.sphere_field:family_sphere_field", seed_id=3,
                 difficulty="more spheres, closer to the path")
