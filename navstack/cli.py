@@ -86,7 +86,7 @@ def _generate(args: argparse.Namespace) -> int:
     from navstack.generate import generate_world
     from navstack.world import save_world
 
-    world = generate_world(args.family, seed=args.seed, difficulty=args.difficulty)
+    world = generate_world(args.family, seed=args.seed, difficulty=args.difficulty, retract=args.retract)
     save_world(world, args.out)
     print(f"wrote {args.out} ({world.name}: {len(world.obstacles)} obstacles, {len(world.goals)} goals)")
     return EXIT_OK
@@ -124,7 +124,7 @@ def _model(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from navstack.registry import controller_names, planner_names
+    from navstack.registry import controller_names, family_names, planner_names
 
     CONTROLLERS, PLANNERS = controller_names(), planner_names()
 
@@ -157,9 +157,12 @@ def build_parser() -> argparse.ArgumentParser:
     c.set_defaults(func=_check_world)
 
     g = sub.add_parser("generate", help="write a randomized world of a family")
-    g.add_argument("family")
+    g.add_argument("family", help="one of: " + ", ".join(family_names()))
     g.add_argument("--seed", type=int, required=True)
     g.add_argument("--difficulty", type=float, default=0.5, help="0 (easy) .. 1 (hard), default 0.5")
+    g.add_argument("--retract", action=argparse.BooleanOptionalAction, default=None,
+                   help='write "retract": true (back out to the start after the last goal); default: the '
+                        "family's (true for dead-end only)")
     g.add_argument("--out", required=True, help="world file to write")
     g.set_defaults(func=_generate)
 

@@ -177,3 +177,8 @@ register_family("pipe-rack", "2-3 layers of horizontal pipes, a goal at each cro
 register_family("sphere-field", "spheres beside a bumped path, via goals on the bump",
                 "navstack.generate.sphere_field:family_sphere_field", seed_id=3,
                 difficulty="more spheres, closer to the path")
+register_family("slot-rack", "2-3 rows of pipes or slotted plates, any roll; slots alternate off the line; "
+                "goals: entry and destination only",
+                "navstack.generate.slot_rack:family_slot_rack", seed_id=4,
+                difficulty="3rd row 0.15 -> 0.75 likely, rows 0.5-0.65 -> 0.33-0.45 m apart, slot 0.15 -> 0.12 m, "
+                           "2nd sphere 0.2 -> 0.8 likely, spheres closer")

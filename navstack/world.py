@@ -19,6 +19,8 @@ Keys (anything else is an error, except inside ``extra``), whether required, def
   optional (0.02 m, > 0).
 * ``time_limit``: optional; 60.0 s, > 0.
 * ``family``: optional; ``null`` or a non-empty string (reports group by it).
+* ``retract``: optional; ``false``; a boolean: after the last goal the robot backs out along its own path
+  (interfaces.md section 2a).  Written only when true.
 * ``extra``: optional; ``{}``; any JSON object, checked only for being finite JSON.
 
 Obstacles (``type`` is required and selects the kind):
@@ -556,6 +558,7 @@ class World(_ValueEq):
     time_limit: float = DEFAULT_TIME_LIMIT
     description: str = ""
     family: str | None = None
+    retract: bool = False
     extra: dict[str, Any] = field(default_factory=dict)
     source: Path | None = None
 
@@ -583,6 +586,9 @@ class World(_ValueEq):
         _string(c, "World.description", self.description)
         if self.family is not None:
             _string(c, "World.family", self.family, nonempty=True)
+        if not isinstance(self.retract, (bool, np.bool_)):
+            raise c.error("World.retract", f"expected true or false, got {_describe(self.retract)}")
+        _set(self, "retract", bool(self.retract))
         if not isinstance(self.extra, dict):
             raise c.error("World.extra", f"expected a dict, got {_describe(self.extra)}")
         _set(self, "extra", _json_value(c, "World.extra", self.extra))
@@ -601,6 +607,8 @@ class World(_ValueEq):
         }
         if self.family is not None:
             d["family"] = self.family
+        if self.retract:
+            d["retract"] = True
         d["robot"] = self.robot.to_dict()
         d["obstacles"] = [o.to_dict(rel) for o in self.obstacles]
         d["goals"] = [g.to_dict() for g in self.goals]
@@ -694,7 +702,7 @@ def _array(ctx: _Ctx, path: str, v: Any) -> list | tuple:
 
 
 _TOP_REQUIRED = ("format", "name", "robot", "obstacles", "goals")
-_TOP_OPTIONAL = ("description", "time_limit", "family", "extra")
+_TOP_OPTIONAL = ("description", "time_limit", "family", "retract", "extra")
 
 
 def world_from_dict(data: Any, source: str | os.PathLike[str] | None = None) -> World:
@@ -722,6 +730,9 @@ def world_from_dict(data: Any, source: str | os.PathLike[str] | None = None) -> 
     family = None
     if d.get("family") is not None:
         family = _string(ctx, "family", d["family"], nonempty=True)
+    retract = d.get("retract", False)
+    if not isinstance(retract, bool):
+        raise ctx.error("retract", f"expected true or false, got {_describe(retract)}")
     robot = _parse_robot(ctx, "robot", d["robot"])
     obstacles = tuple(_parse_obstacle(ctx, f"obstacles[{i}]", o)
                       for i, o in enumerate(_array(ctx, "obstacles", d["obstacles"])))
@@ -737,7 +748,7 @@ def world_from_dict(data: Any, source: str | os.PathLike[str] | None = None) -> 
             raise ctx.error("extra", f"expected an object, got {_describe(d['extra'])}")
         extra = _json_value(ctx, "extra", d["extra"])
     return World(name=name, robot=robot, obstacles=obstacles, goals=goals, time_limit=time_limit,
-                 description=description, family=family, extra=extra,
+                 description=description, family=family, retract=retract, extra=extra,
                  source=None if source is None else Path(source).resolve())
 
 

@@ -93,6 +93,12 @@ class Candidate:
         params: drawn parameters, stored in ``extra.generator``.
         description: the world's description.
         drawn: the truss as drawn (truss families): the path through the goals is also checked against it.
+        checks: :class:`CheckConfig` fields this family makes stricter (stored in
+            ``extra.generator.check_config``; :func:`check_world` re-applies them).
+        blocked_depth: when set [m], the goals must not mark the way: the body slithering along the
+            spline through the goals alone must penetrate an obstacle by at least this much
+            (``extra.generator.goal_path_clearance <= -blocked_depth``), else the candidate is discarded.
+        retract: the family's default for the world's ``retract`` key.
     """
 
     obstacles: list[dict[str, Any]]
@@ -102,17 +108,20 @@ class Candidate:
     params: dict[str, Any]
     description: str
     drawn: list[dict[str, Any]] | None = None
-    extra_checks: dict[str, Any] = field(default_factory=dict)
+    checks: dict[str, float] = field(default_factory=dict)
+    blocked_depth: float | None = None
+    retract: bool = False
 
 
 def build_world(name: str, family: str | None, cand: Candidate, extra: dict[str, Any],
-                time_limit: float = 60.0) -> World:
+                time_limit: float = 60.0, retract: bool = False) -> World:
     """The world of a candidate (goals with tolerance :data:`TOLERANCE`)."""
     return world_from_dict({
         "format": "navstack-world/1",
         "name": name,
         "description": cand.description,
         **({"family": family} if family is not None else {}),
+        **({"retract": True} if retract else {}),
         "robot": robot_dict(),
         "obstacles": cand.obstacles,
         "goals": [{"position": rounded(g), "tolerance": TOLERANCE} for g in cand.goals],

@@ -320,6 +320,16 @@ def run_checks(world: World, via: FloatArray, structure: int, cfg: CheckConfig, 
                        miss, inside_len, S.insertion, S.path.length)
 
 
+def _stored_config(overrides: Any) -> CheckConfig:
+    """:class:`CheckConfig` with the fields in ``overrides`` (a dict from ``extra.generator.check_config``)."""
+    if not isinstance(overrides, dict):
+        raise ValueError(f"check_world: extra.generator.check_config must be an object, got {overrides!r}")
+    try:
+        return CheckConfig(**overrides)
+    except TypeError as e:
+        raise ValueError(f"check_world: extra.generator.check_config: {e}") from e
+
+
 def check_world(world: World, via: ArrayLike | None = None, structure: int | None = None,
                 config: CheckConfig | None = None) -> CheckReport:
     """Check that ``world`` is solvable in principle along its reference path (module docstring).
@@ -330,15 +340,18 @@ def check_world(world: World, via: ArrayLike | None = None, structure: int | Non
             else the goals.
         structure: how many leading obstacles form the structure for the length rule; default
             ``extra.generator.structure_obstacles`` if present, else all.
-        config: thresholds.
+        config: thresholds; default :class:`CheckConfig` with the stricter values a family stored in
+            ``extra.generator.check_config`` (e.g. ``body_margin`` 0.012 m for the sparse-goal families).
 
-    The PyBullet start check runs only when every other check passed (it is the slowest).
+    The PyBullet start check runs only when every other check passed (it is the slowest).  A
+    ``retract`` world's way back passes through the same configurations in reverse order (the tip
+    retraces the path, every joint point stays on it), so the same checks cover it.
 
     Raises:
-        ValueError: a mesh obstacle, or malformed ``via`` / ``structure``.
+        ValueError: a mesh obstacle, or malformed ``via`` / ``structure`` / ``check_config``.
     """
-    cfg = config or CheckConfig()
     gen = world.extra.get("generator", {}) if isinstance(world.extra.get("generator"), dict) else {}
+    cfg = config or _stored_config(gen.get("check_config", {}))
     if via is None:
         via = gen.get("reference_via", world.goal_positions)
     v = np.atleast_2d(np.asarray(via, dtype=np.float64))

@@ -1,0 +1,119 @@
+"""Shared by the families whose goals do not mark the way (``slot-rack``, ``sparse-truss``,
+``bend-clutter``, ``dead-end``).
+
+Their worlds give only an entry point and a destination (or an inspection point and an exit); the way
+between them is proven by a hidden reference path through reference via points that the family picks
+with :func:`fit_via` (a cheap pre-check of the turn radius and the clearances before the full checks).
+They check with the user's clearance for every link (:data:`SPARSE_CHECKS`: ``body_margin`` 12 mm), and
+:data:`BLOCKED_DEPTH` makes :func:`navstack.generate.build.finish` discard a candidate whose goals alone
+would lead the scripted planner through.  Units: metres, radians.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy.spatial.transform import Rotation
+
+from navstack.generate.base import HEADING, TIP
+from navstack.generate.checks import CheckConfig, ReferencePath, RobotStart, path_samples, reference_path
+from navstack.generate.geometry import FloatArray, obstacle_distance, perpendicular, rounded, sphere_dict
+from navstack.world import Obstacle, world_from_dict
+
+__all__ = [
+    "BLOCKED_DEPTH",
+    "SPARSE_CHECKS",
+    "arc_at",
+    "ball_between",
+    "box_on_axes",
+    "cross_axes",
+    "fit_via",
+    "obstacles_of",
+    "sparse_config",
+]
+
+SPARSE_CHECKS: dict[str, float] = {"body_margin": 0.012}
+"""Stricter :class:`CheckConfig` fields: every link keeps 12 mm, as in the user's worlds."""
+
+BLOCKED_DEPTH = 0.005
+"""The body slithering along the spline through the goals alone must cut this deep [m] into an obstacle."""
+
+
+def sparse_config(cfg: CheckConfig) -> CheckConfig:
+    """``cfg`` with :data:`SPARSE_CHECKS` applied."""
+    return replace(cfg, **SPARSE_CHECKS)
+
+
+def obstacles_of(dicts: list[dict[str, Any]]) -> tuple[Obstacle, ...]:
+    """Obstacle dicts as validated obstacles (for :func:`obstacle_distance`)."""
+    return world_from_dict({"format": "navstack-world/1", "name": "probe", "robot": {}, "obstacles": dicts,
+                            "goals": [{"position": [0.0, 0.0, 0.0]}]}).obstacles
+
+
+def cross_axes(u: FloatArray, roll: float) -> tuple[FloatArray, FloatArray]:
+    """Unit vectors ``a`` (at angle ``roll`` [rad] about ``u`` from the horizontal) and ``n = u x a``.
+
+    For ``u`` along +x, ``roll`` 0 gives ``a`` = +y (horizontal) and ``n`` = +z; pi/2 gives ``a`` = +z.
+    """
+    up = np.array([0.0, 0.0, 1.0])
+    e1 = np.cross(up, u)
+    if np.linalg.norm(e1) < 1e-6:
+        e1 = np.cross(np.array([0.0, 1.0, 0.0]), u)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(u, e1)
+    a = np.cos(roll) * e1 + np.sin(roll) * e2
+    return a, np.cross(u, a)
+
+
+def box_on_axes(center: ArrayLike, axes: FloatArray, half: ArrayLike) -> dict[str, Any]:
+    """A box whose local x, y, z axes are the columns of the rotation ``axes`` (3, 3)."""
+    rpy = Rotation.from_matrix(axes).as_euler("xyz")
+    return {"type": "box", "center": rounded(center), "half_extents": rounded(half), "rpy": rounded(rpy)}
+
+
+def arc_at(path: ReferencePath, origin: FloatArray, u: FloatArray, x: float) -> float:
+    """Arc length [m] where ``path`` first passes the plane ``(p - origin) . u = x``."""
+    along = (path.points - origin) @ u
+    i = int(np.argmax(along >= x)) if (along >= x).any() else len(along) - 1
+    return float(path.arc[i])
+
+
+def ball_between(rng: np.random.Generator, path: ReferencePath, s_lo: float, s_hi: float, dist: float,
+                 radius: tuple[float, float]) -> dict[str, Any]:
+    """A sphere (radius drawn from ``radius`` [m]) whose surface is ``dist`` [m] from a random point of
+    ``path`` between arc lengths ``s_lo`` and ``s_hi``, in a random direction across the path."""
+    idx = np.flatnonzero((path.arc >= s_lo) & (path.arc <= s_hi))
+    if idx.size == 0:
+        idx = np.array([int(np.searchsorted(path.arc, 0.5 * (s_lo + s_hi)).clip(0, len(path.arc) - 1))])
+    i = int(rng.choice(idx))
+    j, k = min(i + 1, len(path.points) - 1), max(i - 1, 0)
+    t = path.points[j] - path.points[k]
+    n = perpendicular(rng, t / np.linalg.norm(t))
+    r = rng.uniform(*radius)
+    return sphere_dict(path.points[i] + (dist + r) * n, r)
+
+
+def fit_via(draw: Callable[[], FloatArray], obstacles: list[dict[str, Any]], robot: RobotStart,
+            cfg: CheckConfig, tries: int = 25) -> FloatArray:
+    """Call ``draw()`` until its via points give a reference path that turns with a radius of at least
+    ``cfg.min_turn_radius`` and keeps the tip path and the slithering body clear of ``obstacles`` (checks
+    2-3); the last draw when none does (the full checks then reject the candidate)."""
+    obs = obstacles_of(obstacles)
+    need_tip = robot.serpentine_radius + cfg.path_margin
+    need_body = robot.serpentine_radius + cfg.body_margin
+    via = draw()
+    for attempt in range(tries):
+        if attempt:
+            via = draw()
+        coarse = reference_path(TIP, HEADING, via, 4 * cfg.path_sample)
+        if coarse.min_turn_radius < cfg.min_turn_radius:
+            continue
+        if obstacle_distance(obs, coarse.points, cfg.horizon).min() < need_tip + 1e-3:
+            continue
+        if obstacle_distance(obs, path_samples(robot, via, cfg).body, cfg.horizon).min() >= need_body + 1e-3:
+            return via
+    return via
