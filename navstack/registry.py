@@ -182,3 +182,8 @@ register_family("slot-rack", "2-3 rows of pipes or slotted plates, any roll; slo
                 "navstack.generate.slot_rack:family_slot_rack", seed_id=4,
                 difficulty="3rd row 0.15 -> 0.75 likely, rows 0.5-0.65 -> 0.33-0.45 m apart, slot 0.15 -> 0.12 m, "
                            "2nd sphere 0.2 -> 0.8 likely, spheres closer")
+register_family("sparse-truss", "the box-bay truss, displaced, with clutter 1.7-5 cm from the way; goals: an "
+                "inspection point inside and the exit only",
+                "navstack.generate.sparse_truss:family_sparse_truss", seed_id=5,
+                difficulty="as truss (bay 0.5 -> 0.42 m, members 2 -> 2.5 cm, displacement up to 6 cm / 3 deg), "
+                           "3 -> 6 clutter items, 1.7-5.2 -> 1.7-3.2 cm from the tip's path")

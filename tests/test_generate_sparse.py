@@ -26,7 +26,7 @@ from navstack.truss import PAPER_BASE_RPY, robot_tip_start
 from navstack.world import load_world, save_world
 
 TIP, HEADING = robot_tip_start((0.0, 0.0, 0.3), PAPER_BASE_RPY)
-SPARSE = ("slot-rack",)
+SPARSE = ("slot-rack", "sparse-truss")
 CASES = [(f, s, d) for f in SPARSE for s, d in ((0, 0.0), (1, 0.3), (2, 0.6), (3, 1.0), (4, 1.0))]
 
 
@@ -97,6 +97,29 @@ def test_difficulty_narrows_slots_and_rows():
     assert min(np.diff(g["row_positions"]).min() for g in easy) >= 0.5 - 1e-9
 
 
+@pytest.mark.parametrize(("seed", "difficulty"), [(0, 0.0), (1, 0.5), (2, 1.0), (3, 1.0)])
+def test_sparse_truss_gives_an_inspection_point_inside_and_the_exit_only(seed, difficulty):
+    w = generate_world("sparse-truss", seed, difficulty)
+    gen = w.extra["generator"]
+    n = gen["structure_obstacles"]
+    truss, clutter = w.obstacles[:n], w.obstacles[n:]
+    inspect, exit_ = w.goal_positions
+    assert len(w.goals) == 2 and gen["manoeuvre"] in ("climb", "side")
+    ends = np.array([p for o in truss for p in (o.p0, o.p1)])
+    assert np.all(inspect > ends.min(axis=0)) and np.all(inspect < ends.max(axis=0))  # inside the truss
+    assert obstacle_distance(truss, inspect[None])[0] >= 0.07
+    assert np.allclose(exit_, gen["reference_via"][-1], atol=1e-6)  # the exit, not the openings
+    assert len(gen["reference_via"]) >= 3  # the hidden way: in front of the opening, through it, the turn
+    # clutter beside the way: 17 mm to 5.2 cm from the tip's surface on the reference path
+    ref = reference_path(TIP, HEADING, gen["reference_via"])
+    assert len(clutter) >= 3
+    near = [obstacle_distance([o], ref.points).min() - 0.025 for o in clutter[gen["blockers"]:]]
+    assert all(0.015 <= g <= 0.053 for g in near), near
+    # where the truss does not block the goals-only spline, one sphere of equipment does
+    assert gen["blocked_by"] in ("truss", "clutter")
+    assert gen["blockers"] == (1 if gen["blocked_by"] == "clutter" else 0)
+
+
 # --------------------------------------------------------------------------- retract
 
 
@@ -130,7 +153,8 @@ def test_cli_generate_retract(tmp_path, capsys):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("family", "seed", "difficulty"), [("slot-rack", 0, 0.5), ("slot-rack", 1, 1.0)])
+@pytest.mark.parametrize(("family", "seed", "difficulty"), [("slot-rack", 0, 0.5), ("slot-rack", 1, 1.0),
+                                                          ("sparse-truss", 1, 1.0)])
 def test_scripted_collides_on_the_goals_but_follows_the_reference_through(family, seed, difficulty):
     w = generate_world(family, seed, difficulty)
     blind = run_trial(w, planner="scripted")

@@ -19,8 +19,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
-from navstack.generate.base import HEADING, TIP
-from navstack.generate.checks import CheckConfig, ReferencePath, RobotStart, path_samples, reference_path
+from navstack.generate.base import HEADING, TIP, Guard, place
+from navstack.generate.checks import CheckConfig, ReferencePath, RobotStart, Samples, path_samples, reference_path
 from navstack.generate.geometry import FloatArray, obstacle_distance, perpendicular, rounded, sphere_dict
 from navstack.world import Obstacle, world_from_dict
 
@@ -29,6 +29,7 @@ __all__ = [
     "SPARSE_CHECKS",
     "arc_at",
     "ball_between",
+    "block_goal_path",
     "box_on_axes",
     "cross_axes",
     "fit_via",
@@ -117,3 +118,26 @@ def fit_via(draw: Callable[[], FloatArray], obstacles: list[dict[str, Any]], rob
         if obstacle_distance(obs, path_samples(robot, via, cfg).body, cfg.horizon).min() >= need_body + 1e-3:
             return via
     return via
+
+
+def block_goal_path(rng: np.random.Generator, goals: FloatArray, reference: Samples, guard: Guard,
+                    robot: RobotStart, s_from: float = 0.25, tries: int = 40) -> list[dict[str, Any]]:
+    """A sphere (radius 0.02-0.05 m, "unmodelled equipment") that the tip on the spline through ``goals``
+    alone would cut :data:`BLOCKED_DEPTH` + 5 mm to 20 mm into, placed where that spline is far enough from
+    the reference path for ``guard`` to accept it; ``[]`` when no such place is found in ``tries`` draws."""
+    goal_path = reference_path(TIP, HEADING, goals, 0.01)
+    near_ref = np.array([np.linalg.norm(reference.path.points[::5] - q, axis=1).min() for q in goal_path.points])
+    far = np.flatnonzero((goal_path.arc >= s_from) & (near_ref >= 0.06))
+    if far.size == 0:
+        return []
+    ref_pts = reference.path.points[::5]
+
+    def blocker() -> dict[str, Any]:
+        q = goal_path.points[int(rng.choice(far))]
+        v = q - ref_pts[int(np.argmin(np.linalg.norm(ref_pts - q, axis=1)))]
+        v /= np.linalg.norm(v)
+        r = rng.uniform(0.02, 0.05)
+        cut = robot.serpentine_radius - BLOCKED_DEPTH - rng.uniform(0.005, 0.02)  # surface this far from q
+        return sphere_dict(q + (r + cut) * v, r)
+
+    return place(rng, blocker, 1, guard, tries=tries)

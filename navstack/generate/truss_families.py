@@ -83,6 +83,16 @@ class TrussLayout:
         s = self.side
         return np.array([0.0, s - c, c]) if self.entry == "br" else np.array([0.0, c, s - c])
 
+    def to_local(self, points: FloatArray) -> FloatArray:
+        """Points (N, 3) [m] near the *actual* truss in the truss's own frame (corner (0, 0, 0), bays
+        [0, nx side] x [0, ny side] x [0, nz side]): the inverse of the displacement, then the drawing."""
+        ny, nz = self.bays[1], self.bays[2]
+        entry_local = np.array([0, ny // 2, nz - 1], dtype=float) * self.side + self.entry_point()
+        origin = TIP + self.standoff * HEADING - entry_local
+        pivot = origin + entry_local
+        R = Rotation.from_euler("xyz", self.rpy).as_matrix()
+        return (np.asarray(points) - pivot - self.offset) @ R + pivot - origin
+
     def build(self) -> tuple[list[dict[str, Any]], list[dict[str, Any]], FloatArray, FloatArray]:
         """Actual members, drawn members, goals (drawn, world) and the goals carried with the actual truss."""
         nx, ny, nz = self.bays
