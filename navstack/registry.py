@@ -187,3 +187,8 @@ register_family("sparse-truss", "the box-bay truss, displaced, with clutter 1.7-
                 "navstack.generate.sparse_truss:family_sparse_truss", seed_id=5,
                 difficulty="as truss (bay 0.5 -> 0.42 m, members 2 -> 2.5 cm, displacement up to 6 cm / 3 deg), "
                            "3 -> 6 clutter items, 1.7-5.2 -> 1.7-3.2 cm from the tip's path")
+register_family("bend-clutter", "a 60-110 deg bend round a column, clutter on its inside and outside; goals: "
+                "the start of the bend region and the destination only",
+                "navstack.generate.bend_clutter:family_bend_clutter", seed_id=6,
+                difficulty="radius 0.36-0.45 -> 0.3-0.36 m, bend 60-85 -> 80-110 deg, column/plate 7 -> 5.5 cm "
+                           "from the path, 2 -> 5 clutter items 1.7-5.7 -> 1.7-2.7 cm from the tip's path")

@@ -23,10 +23,10 @@ from navstack.generate import (
 from navstack.generate.build import time_limit_for
 from navstack.trial import run_trial
 from navstack.truss import PAPER_BASE_RPY, robot_tip_start
-from navstack.world import load_world, save_world
+from navstack.world import Cylinder, load_world, save_world
 
 TIP, HEADING = robot_tip_start((0.0, 0.0, 0.3), PAPER_BASE_RPY)
-SPARSE = ("slot-rack", "sparse-truss")
+SPARSE = ("slot-rack", "sparse-truss", "bend-clutter")
 CASES = [(f, s, d) for f in SPARSE for s, d in ((0, 0.0), (1, 0.3), (2, 0.6), (3, 1.0), (4, 1.0))]
 
 
@@ -120,6 +120,34 @@ def test_sparse_truss_gives_an_inspection_point_inside_and_the_exit_only(seed, d
     assert gen["blockers"] == (1 if gen["blocked_by"] == "clutter" else 0)
 
 
+@pytest.mark.parametrize(("seed", "difficulty"), [(0, 0.0), (1, 0.5), (2, 1.0)])
+def test_bend_clutter_goals_before_and_after_the_bend_clutter_on_both_sides(seed, difficulty):
+    w = generate_world("bend-clutter", seed, difficulty)
+    gen = w.extra["generator"]
+    column, plate, *clutter = w.obstacles
+    entry, dest = w.goal_positions
+    assert isinstance(column, Cylinder) and len(w.goals) == 2 and len(clutter) == gen["clutter"] >= 2
+    assert 60.0 <= gen["bend_deg"] <= 110.0 and 0.3 <= gen["bend_radius"] <= 0.45
+    # the entry goal is on the straight before the bend, the destination after it
+    assert np.linalg.norm(np.cross(entry - TIP, HEADING)) < 1e-6
+    assert gen["straight"] - 0.12 - 1e-6 <= (entry - TIP) @ HEADING <= gen["straight"] - 0.05 + 1e-6
+    # heading for the goals cuts the corner through the column
+    goal_path = reference_path(TIP, HEADING, w.goal_positions)
+    assert obstacle_distance([column], goal_path.points).min() < 0.0
+    # clutter on the inside (towards the column) and the outside of the bend
+    ref = reference_path(TIP, HEADING, gen["reference_via"])
+    axis = column.p1 - column.p0
+    axis /= np.linalg.norm(axis)
+    sides = set()
+    for o in clutter:
+        c = o.center if not isinstance(o, Cylinder) else (o.p0 + o.p1) / 2
+        p = ref.points[np.argmin(np.linalg.norm(ref.points - c, axis=1))]
+        towards = column.p0 - p
+        towards -= (towards @ axis) * axis
+        sides.add(bool((c - p) @ towards > 0))
+    assert sides == {True, False}
+
+
 # --------------------------------------------------------------------------- retract
 
 
@@ -154,7 +182,7 @@ def test_cli_generate_retract(tmp_path, capsys):
 
 @pytest.mark.slow
 @pytest.mark.parametrize(("family", "seed", "difficulty"), [("slot-rack", 0, 0.5), ("slot-rack", 1, 1.0),
-                                                          ("sparse-truss", 1, 1.0)])
+                                                          ("sparse-truss", 1, 1.0), ("bend-clutter", 0, 1.0)])
 def test_scripted_collides_on_the_goals_but_follows_the_reference_through(family, seed, difficulty):
     w = generate_world(family, seed, difficulty)
     blind = run_trial(w, planner="scripted")
