@@ -192,3 +192,8 @@ register_family("bend-clutter", "a 60-110 deg bend round a column, clutter on it
                 "navstack.generate.bend_clutter:family_bend_clutter", seed_id=6,
                 difficulty="radius 0.36-0.45 -> 0.3-0.36 m, bend 60-85 -> 80-110 deg, column/plate 7 -> 5.5 cm "
                            "from the path, 2 -> 5 clutter items 1.7-5.7 -> 1.7-2.7 cm from the tip's path")
+register_family("dead-end", "a box tube or cage open towards the robot, the goal at its back; retract: true "
+                "(back out along the path)",
+                "navstack.generate.dead_end:family_dead_end", seed_id=7,
+                difficulty="half width 0.11 -> 0.08 m, depth 0.3 -> 0.5 m, axis tilt (and so mouth offset) up to "
+                           "10 -> 30 deg, 0 -> 2 clutter items beside the approach")

@@ -1,4 +1,5 @@
-"""Families whose goals do not mark the way (``slot-rack``, ...), and ``retract`` worlds.
+"""Families whose goals do not mark the way (``slot-rack``, ``sparse-truss``, ``bend-clutter``), the
+``dead-end`` family, and ``retract`` worlds.
 
 Each family's worlds pass :func:`check_world` with the user's 12 mm for every link (stored in
 ``extra.generator.check_config``); their goals alone do not lead through (the spline through them cuts
@@ -27,7 +28,8 @@ from navstack.world import Cylinder, load_world, save_world
 
 TIP, HEADING = robot_tip_start((0.0, 0.0, 0.3), PAPER_BASE_RPY)
 SPARSE = ("slot-rack", "sparse-truss", "bend-clutter")
-CASES = [(f, s, d) for f in SPARSE for s, d in ((0, 0.0), (1, 0.3), (2, 0.6), (3, 1.0), (4, 1.0))]
+NEW = (*SPARSE, "dead-end")
+CASES = [(f, s, d) for f in NEW for s, d in ((0, 0.0), (1, 0.3), (2, 0.6), (3, 1.0), (4, 1.0))]
 
 
 @pytest.mark.parametrize(("family", "seed", "difficulty"), CASES)
@@ -37,7 +39,7 @@ def test_sparse_world_passes_the_strict_checks_after_round_trip(family, seed, di
     assert gen["check_config"] == {"body_margin": 0.012}
     save_world(w, tmp_path / "w.json")
     back = load_world(tmp_path / "w.json")
-    assert back == w and not back.retract
+    assert back == w and back.retract == (family == "dead-end")
     report = check_world(back)  # re-applies the stored body margin
     assert report.ok, report.problems
     assert report.body_clearance >= 0.012 and report.arm_clearance >= CheckConfig().arm_margin
@@ -45,6 +47,8 @@ def test_sparse_world_passes_the_strict_checks_after_round_trip(family, seed, di
     assert report.start_clearance is not None and report.start_clearance >= 0.05
     # the same world fails a stricter body margin than it was built for, so the stored one is what counts
     assert not check_world(back, config=CheckConfig(body_margin=report.body_clearance + 1e-3)).ok
+    if family not in SPARSE:
+        return
     # the goals do not mark the way: the body on the spline through the goals alone cuts into an obstacle
     assert gen["goal_path_clearance"] <= -0.005
     goal_path = reference_path(TIP, HEADING, w.goal_positions)
@@ -146,6 +150,33 @@ def test_bend_clutter_goals_before_and_after_the_bend_clutter_on_both_sides(seed
         towards -= (towards @ axis) * axis
         sides.add(bool((c - p) @ towards > 0))
     assert sides == {True, False}
+
+
+@pytest.mark.parametrize(("seed", "difficulty"), [(0, 0.0), (1, 1.0), (2, 0.5), (6, 1.0)])  # 6: a cage
+def test_dead_end_goal_at_the_back_of_a_pocket_retract_by_default(seed, difficulty, tmp_path):
+    w = generate_world("dead-end", seed, difficulty)
+    gen = w.extra["generator"]
+    assert w.retract and w.name == f"dead-end-s{seed:04d}-d{difficulty:.2f}" and len(w.goals) == 1
+    assert w.time_limit == time_limit_for(gen["checks"]["path_length"], True)
+    report = check_world(w)
+    assert report.ok and report.body_clearance >= 0.012, report.problems
+    goal, axis = w.goal_positions[0], np.array(gen["axis"])
+    pocket = w.obstacles[: gen["structure_obstacles"]]
+    assert 0.07 - 1e-6 <= gen["depth"] - (goal - np.array(gen["mouth"])) @ axis <= 0.1 + 1e-6
+    # closed but towards the mouth: the tip cannot leave the goal in any direction except out of the mouth
+    rng = np.random.default_rng(0)
+    for d in rng.normal(size=(300, 3)):
+        d /= np.linalg.norm(d)
+        if d @ axis > -0.5:
+            ray = goal + np.linspace(0.0, 0.8, 400)[:, None] * d
+            assert obstacle_distance(pocket, ray).min() < 0.025, d
+    out = generate_world("dead-end", seed, difficulty, retract=False)
+    assert not out.retract and out.name == w.name + "-noretract" and out.obstacles == w.obstacles
+
+
+def test_dead_end_has_box_tubes_and_cages():
+    kinds = {generate_world("dead-end", s, 0.5).extra["generator"]["kind"] for s in range(8)}
+    assert kinds == {"box tube", "cage"}
 
 
 # --------------------------------------------------------------------------- retract
