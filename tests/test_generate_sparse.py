@@ -9,17 +9,21 @@ metres.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from navstack.cli import main
 from navstack.generate import (
+    FAMILY_EXAMPLES,
     CheckConfig,
     check_world,
     generate_world,
     obstacle_distance,
     reference_path,
     with_reference_goals,
+    write_family_examples,
 )
 from navstack.generate.build import time_limit_for
 from navstack.trial import run_trial
@@ -27,6 +31,7 @@ from navstack.truss import PAPER_BASE_RPY, robot_tip_start
 from navstack.world import Cylinder, load_world, save_world
 
 TIP, HEADING = robot_tip_start((0.0, 0.0, 0.3), PAPER_BASE_RPY)
+WORLDS = Path(__file__).resolve().parents[1] / "worlds"
 SPARSE = ("slot-rack", "sparse-truss", "bend-clutter")
 NEW = (*SPARSE, "dead-end")
 CASES = [(f, s, d) for f in NEW for s, d in ((0, 0.0), (1, 0.3), (2, 0.6), (3, 1.0), (4, 1.0))]
@@ -206,6 +211,15 @@ def test_cli_generate_retract(tmp_path, capsys):
     assert "slot-rack-s0001-d0.50-retract" in capsys.readouterr().out
     assert main(["generate", "slot-rack", "--seed", "1", "--no-retract", "--out", str(out)]) == 0
     assert not load_world(out).retract
+
+
+def test_family_examples_in_worlds_are_regenerated_identically(tmp_path):
+    written = write_family_examples(tmp_path)
+    assert [f.name for f in written] == [e[0] for e in FAMILY_EXAMPLES]
+    for f in written:
+        w = load_world(f)
+        assert w == load_world(WORLDS / f.name), f"worlds/{f.name} is stale: rerun write_family_examples('worlds')"
+        assert check_world(w).ok
 
 
 # --------------------------------------------------------------------------- closed loop

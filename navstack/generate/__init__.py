@@ -18,9 +18,25 @@ The package, one concept per module:
 * :mod:`~navstack.generate.base`: the robot placement, candidates, clutter placement;
 * :mod:`~navstack.generate.build`: :func:`generate_world` (sub-seeds, retries);
 * one module per family, registered in :mod:`navstack.registry` (name, factory, fixed ``seed_id``,
-  what difficulty changes): :mod:`~navstack.generate.truss_families` (``truss``,
-  ``cluttered-truss``), :mod:`~navstack.generate.pipe_rack`, :mod:`~navstack.generate.sphere_field`;
+  what difficulty changes), each documenting its layout and its difficulty knob:
+
+  - goals at every crossing: :mod:`~navstack.generate.truss_families` (``truss``, ``cluttered-truss``),
+    :mod:`~navstack.generate.pipe_rack`, :mod:`~navstack.generate.sphere_field`;
+  - goals that do not mark the way (:mod:`~navstack.generate.sparse`: 12 mm for every link, the spline
+    through the goals alone must cut into an obstacle): :mod:`~navstack.generate.slot_rack`
+    (``slot-rack``), :mod:`~navstack.generate.sparse_truss` (``sparse-truss``),
+    :mod:`~navstack.generate.bend_clutter` (``bend-clutter``);
+  - :mod:`~navstack.generate.dead_end` (``dead-end``): the goal at the back of a pocket, ``retract``;
 * :mod:`~navstack.generate.issue_worlds`: the fixed worlds in ``worlds/``.
+
+``generate_world(..., retract=True)`` writes ``"retract": true`` into any family's world (the robot must
+back out to its start after the last goal, interfaces.md section 2a); the way back is the same path
+reversed, so the checks cover it and only the time limit grows (:func:`~navstack.generate.build.
+time_limit_for`: three times the path at 0.06 m/s, counted twice for a retract world, at least 60 s).
+A family's stricter thresholds are stored in ``extra.generator.check_config`` and re-applied by
+:func:`check_world`; for the sparse-goal families ``extra.generator.goal_path_clearance`` is the surface
+clearance of the body slithering along the spline through the goals alone (negative: the scripted
+planner collides).
 
 Robot of every family: the paper's demo placement, base (0, 0, 0.3) m, rpy (0, -pi/2, pi), tip at
 (1.8085, 0.1079, 1.1668) m heading +x, lathe bed along +x.
@@ -62,7 +78,8 @@ seed, so one seed at several difficulties gives related layouts.  Units: metres,
 from __future__ import annotations
 
 from navstack.generate.base import BASE_POSITION, GENERATOR_VERSION, TOLERANCE, with_reference_goals
-from navstack.generate.build import MAX_ATTEMPTS, generate_world, world_name
+from navstack.generate.bend_clutter import family_bend_clutter
+from navstack.generate.build import MAX_ATTEMPTS, generate_world, time_limit_for, world_name
 from navstack.generate.checks import (
     CheckConfig,
     CheckReport,
@@ -71,16 +88,21 @@ from navstack.generate.checks import (
     reference_path,
     start_clearance,
 )
+from navstack.generate.dead_end import family_dead_end
 from navstack.generate.geometry import obstacle_distance
 from navstack.generate.issue_worlds import (
+    FAMILY_EXAMPLES,
     ISSUE_PIPE_RACK,
     pipe_rack_world,
     truss_clutter_world,
     truss_displaced_world,
     u_trap_world,
+    write_family_examples,
     write_issue_worlds,
 )
 from navstack.generate.pipe_rack import family_pipe_rack
+from navstack.generate.slot_rack import family_slot_rack
+from navstack.generate.sparse_truss import family_sparse_truss
 from navstack.generate.sphere_field import family_sphere_field
 from navstack.generate.truss_families import TrussLayout, family_cluttered_truss, family_truss
 from navstack.registry import FAMILIES as _REGISTERED
@@ -91,6 +113,7 @@ FAMILIES = tuple(_REGISTERED)
 __all__ = [
     "BASE_POSITION",
     "FAMILIES",
+    "FAMILY_EXAMPLES",
     "GENERATOR_VERSION",
     "ISSUE_PIPE_RACK",
     "MAX_ATTEMPTS",
@@ -100,8 +123,12 @@ __all__ = [
     "ReferencePath",
     "TrussLayout",
     "check_world",
+    "family_bend_clutter",
     "family_cluttered_truss",
+    "family_dead_end",
     "family_pipe_rack",
+    "family_slot_rack",
+    "family_sparse_truss",
     "family_sphere_field",
     "family_truss",
     "generate_world",
@@ -109,10 +136,12 @@ __all__ = [
     "pipe_rack_world",
     "reference_path",
     "start_clearance",
+    "time_limit_for",
     "truss_clutter_world",
     "truss_displaced_world",
     "u_trap_world",
     "with_reference_goals",
     "world_name",
+    "write_family_examples",
     "write_issue_worlds",
 ]

@@ -3,7 +3,9 @@
 ``truss_displaced.json`` (the paper's truss 0.046 m / 3 deg away from its drawing), ``truss_clutter.json``
 (the paper's truss with an unmodelled cable and an equipment box), ``u_trap.json`` (a U of boxes straight
 ahead, the goal behind it, the way round over the top) and ``pipe_rack.json`` (a generated rack).
-Units: metres, radians.
+Examples of the families whose goals do not mark the way, and of ``dead-end``
+(:func:`write_family_examples`): ``slot_rack.json``, ``sparse_truss.json``, ``bend_clutter.json``,
+``dead_end.json`` (generated worlds, :data:`FAMILY_EXAMPLES`).  Units: metres, radians.
 """
 
 from __future__ import annotations
@@ -22,11 +24,13 @@ from navstack.truss import incircle_offset, paper_truss_world
 from navstack.world import World, save_world, world_from_dict
 
 __all__ = [
+    "FAMILY_EXAMPLES",
     "ISSUE_PIPE_RACK",
     "pipe_rack_world",
     "truss_clutter_world",
     "truss_displaced_world",
     "u_trap_world",
+    "write_family_examples",
     "write_issue_worlds",
 ]
 
@@ -132,5 +136,26 @@ def write_issue_worlds(folder: str | Path) -> list[Path]:
                         ("u_trap.json", u_trap_world), ("pipe_rack.json", pipe_rack_world)):
         path = out / fname
         save_world(make(), path)
+        written.append(path)
+    return written
+
+
+FAMILY_EXAMPLES = (
+    ("slot_rack.json", "slot-rack", 0, 0.5),
+    ("sparse_truss.json", "sparse-truss", 1, 1.0),
+    ("bend_clutter.json", "bend-clutter", 0, 1.0),
+    ("dead_end.json", "dead-end", 1, 1.0),
+)
+"""(file, family, seed, difficulty) of the example worlds of the newer families in ``worlds/``."""
+
+
+def write_family_examples(folder: str | Path) -> list[Path]:
+    """Write the worlds of :data:`FAMILY_EXAMPLES` into ``folder`` (created if missing); the written paths."""
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    for fname, family, seed, difficulty in FAMILY_EXAMPLES:
+        path = out / fname
+        save_world(generate_world(family, seed, difficulty), path)
         written.append(path)
     return written

@@ -2,16 +2,15 @@
 ``bend-clutter``, ``dead-end``).
 
 Their worlds give only an entry point and a destination (or an inspection point and an exit); the way
-between them is proven by a hidden reference path through reference via points that the family picks
-with :func:`fit_via` (a cheap pre-check of the turn radius and the clearances before the full checks).
-They check with the user's clearance for every link (:data:`SPARSE_CHECKS`: ``body_margin`` 12 mm), and
-:data:`BLOCKED_DEPTH` makes :func:`navstack.generate.build.finish` discard a candidate whose goals alone
-would lead the scripted planner through.  Units: metres, radians.
+between them is proven by a hidden reference path through reference via points that each family
+constructs (samples of a curvature-bounded curve).  They check with the user's clearance for every link
+(:data:`SPARSE_CHECKS`: ``body_margin`` 12 mm), and :data:`BLOCKED_DEPTH` makes
+:func:`navstack.generate.build.finish` discard a candidate whose goals alone would lead the scripted
+planner through; :func:`block_goal_path` places a blocker where the structure alone does not.  Units: metres, radians.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
@@ -20,8 +19,8 @@ from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
 from navstack.generate.base import HEADING, TIP, Guard, place
-from navstack.generate.checks import CheckConfig, ReferencePath, RobotStart, Samples, path_samples, reference_path
-from navstack.generate.geometry import FloatArray, obstacle_distance, perpendicular, rounded, sphere_dict
+from navstack.generate.checks import CheckConfig, ReferencePath, RobotStart, Samples, reference_path
+from navstack.generate.geometry import FloatArray, perpendicular, rounded, sphere_dict
 from navstack.world import Obstacle, world_from_dict
 
 __all__ = [
@@ -32,7 +31,6 @@ __all__ = [
     "block_goal_path",
     "box_on_axes",
     "cross_axes",
-    "fit_via",
     "obstacles_of",
     "sparse_config",
 ]
@@ -96,28 +94,6 @@ def ball_between(rng: np.random.Generator, path: ReferencePath, s_lo: float, s_h
     n = perpendicular(rng, t / np.linalg.norm(t))
     r = rng.uniform(*radius)
     return sphere_dict(path.points[i] + (dist + r) * n, r)
-
-
-def fit_via(draw: Callable[[], FloatArray], obstacles: list[dict[str, Any]], robot: RobotStart,
-            cfg: CheckConfig, tries: int = 25) -> FloatArray:
-    """Call ``draw()`` until its via points give a reference path that turns with a radius of at least
-    ``cfg.min_turn_radius`` and keeps the tip path and the slithering body clear of ``obstacles`` (checks
-    2-3); the last draw when none does (the full checks then reject the candidate)."""
-    obs = obstacles_of(obstacles)
-    need_tip = robot.serpentine_radius + cfg.path_margin
-    need_body = robot.serpentine_radius + cfg.body_margin
-    via = draw()
-    for attempt in range(tries):
-        if attempt:
-            via = draw()
-        coarse = reference_path(TIP, HEADING, via, 4 * cfg.path_sample)
-        if coarse.min_turn_radius < cfg.min_turn_radius:
-            continue
-        if obstacle_distance(obs, coarse.points, cfg.horizon).min() < need_tip + 1e-3:
-            continue
-        if obstacle_distance(obs, path_samples(robot, via, cfg).body, cfg.horizon).min() >= need_body + 1e-3:
-            return via
-    return via
 
 
 def block_goal_path(rng: np.random.Generator, goals: FloatArray, reference: Samples, guard: Guard,
