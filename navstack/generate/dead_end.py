@@ -25,11 +25,11 @@ from typing import Any
 
 import numpy as np
 
-from navstack.generate.base import HEADING, TIP, Candidate, cable, make_guard, place
+from navstack.generate.base import HEADING, TIP, Candidate, make_guard, place
 from navstack.generate.bend_clutter import bend_path
 from navstack.generate.checks import CheckConfig, RobotStart, path_samples
 from navstack.generate.geometry import FloatArray, cylinder_dict, perpendicular
-from navstack.generate.sparse import SPARSE_CHECKS, ball_between, box_on_axes, sparse_config
+from navstack.generate.sparse import SPARSE_CHECKS, ball_between, box_on_axes, cable_between, sparse_config
 
 __all__ = ["box_tube", "cage", "family_dead_end"]
 
@@ -121,7 +121,7 @@ def family_dead_end(rng: np.random.Generator, difficulty: float, cfg: CheckConfi
     def item() -> dict[str, Any]:
         dist = need + rng.uniform(0.0, 0.03)
         if rng.random() < 0.5:
-            return cable(rng, S.path, dist, 0.25)
+            return cable_between(rng, S.path, 0.25, s_mouth, dist)
         return ball_between(rng, S.path, 0.25, s_mouth, dist, (0.03, 0.06))
 
     items = place(rng, item, int(round(2 * difficulty)), guard)

@@ -20,7 +20,7 @@ from scipy.spatial.transform import Rotation
 
 from navstack.generate.base import HEADING, TIP, Guard, place
 from navstack.generate.checks import CheckConfig, ReferencePath, RobotStart, Samples, reference_path
-from navstack.generate.geometry import FloatArray, perpendicular, rounded, sphere_dict
+from navstack.generate.geometry import FloatArray, cylinder_dict, perpendicular, rounded, sphere_dict
 from navstack.world import Obstacle, world_from_dict
 
 __all__ = [
@@ -30,8 +30,10 @@ __all__ = [
     "ball_between",
     "block_goal_path",
     "box_on_axes",
+    "cable_between",
     "cross_axes",
     "obstacles_of",
+    "point_between",
     "sparse_config",
 ]
 
@@ -81,19 +83,38 @@ def arc_at(path: ReferencePath, origin: FloatArray, u: FloatArray, x: float) -> 
     return float(path.arc[i])
 
 
-def ball_between(rng: np.random.Generator, path: ReferencePath, s_lo: float, s_hi: float, dist: float,
-                 radius: tuple[float, float]) -> dict[str, Any]:
-    """A sphere (radius drawn from ``radius`` [m]) whose surface is ``dist`` [m] from a random point of
-    ``path`` between arc lengths ``s_lo`` and ``s_hi``, in a random direction across the path."""
+def point_between(rng: np.random.Generator, path: ReferencePath, s_lo: float,
+                  s_hi: float) -> tuple[FloatArray, FloatArray]:
+    """A random point of ``path`` between arc lengths ``s_lo`` and ``s_hi`` [m] (the nearest to their
+    middle if none), and a random unit vector across the path there."""
     idx = np.flatnonzero((path.arc >= s_lo) & (path.arc <= s_hi))
     if idx.size == 0:
         idx = np.array([int(np.searchsorted(path.arc, 0.5 * (s_lo + s_hi)).clip(0, len(path.arc) - 1))])
     i = int(rng.choice(idx))
     j, k = min(i + 1, len(path.points) - 1), max(i - 1, 0)
     t = path.points[j] - path.points[k]
-    n = perpendicular(rng, t / np.linalg.norm(t))
+    return path.points[i], perpendicular(rng, t / np.linalg.norm(t))
+
+
+def ball_between(rng: np.random.Generator, path: ReferencePath, s_lo: float, s_hi: float, dist: float,
+                 radius: tuple[float, float]) -> dict[str, Any]:
+    """A sphere (radius drawn from ``radius`` [m]) whose surface is ``dist`` [m] from a random point of
+    ``path`` between arc lengths ``s_lo`` and ``s_hi``, in a random direction across the path."""
+    p, n = point_between(rng, path, s_lo, s_hi)
     r = rng.uniform(*radius)
-    return sphere_dict(path.points[i] + (dist + r) * n, r)
+    return sphere_dict(p + (dist + r) * n, r)
+
+
+def cable_between(rng: np.random.Generator, path: ReferencePath, s_lo: float, s_hi: float,
+                  dist: float) -> dict[str, Any]:
+    """A cable (radius 5-10 mm, 0.4-1 m long, across the path) whose surface is ``dist`` [m] from a random
+    point of ``path`` between arc lengths ``s_lo`` and ``s_hi``."""
+    p, n = point_between(rng, path, s_lo, s_hi)
+    r = rng.uniform(0.005, 0.01)
+    axis = perpendicular(rng, n)
+    length = rng.uniform(0.4, 1.0)
+    centre = p + (dist + r) * n + axis * rng.uniform(-0.25, 0.25) * length
+    return cylinder_dict(centre - axis * length / 2, centre + axis * length / 2, r)
 
 
 def block_goal_path(rng: np.random.Generator, goals: FloatArray, reference: Samples, guard: Guard,
