@@ -18,8 +18,11 @@ has not seen), but unseen space *next to a sensed surface* is probably more of t
 the rays sample a wall a few centimetres apart, and the gaps between the samples are not
 openings until a ray has gone through them (see :mod:`navstack.planner.potential`).
 
-A ray that passes cleanly through a stored point (well before its own end, within
-``clear_radius`` of its line) removes it: surfaces that moved are forgotten.
+With ``forget_moved`` (off by default), a ray that passes cleanly through a stored point (well before
+its own end, within ``clear_radius`` of its line) removes it, so surfaces that moved are forgotten.
+It is off because rays that graze a surface erase its noisy samples (measured on a slot rack: the
+tip kept re-entering a gap whose sides had been erased, 60 s timeout; without erasing, reached in
+22.6 s): a static world is better served by a map that only grows.
 
 Cost: one update per control step, O(rays x range / free_cell) cell writes; queries O(27 x
 points per bucket).  Every kernel is ``numba.njit``.
@@ -48,7 +51,9 @@ class MapConfig:
         margin: the map covers the box around the start and the goals grown by this.
         average: samples in a voxel's running mean.
         hit_backoff: a ray that hits marks free space only up to this before its hit.
-        clear_radius: a ray passing this close to a stored point, before its own end, removes it.
+        forget_moved: rays remove the stored points they pass through (moving obstacles).
+        clear_radius: with ``forget_moved``, a ray passing this close to a stored point, before its own
+            end, removes it.
         clear_backoff: ... but only a point this far or more before the ray's end.
     """
 
@@ -60,6 +65,7 @@ class MapConfig:
     hit_backoff: float = 0.03
     clear_radius: float = 0.004
     clear_backoff: float = 0.05
+    forget_moved: bool = False
 
     def __post_init__(self) -> None:
         for name in ("voxel", "bucket", "free_cell", "margin", "hit_backoff", "clear_radius", "clear_backoff"):
@@ -69,6 +75,8 @@ class MapConfig:
         ratio = self.bucket / self.voxel
         if abs(ratio - round(ratio)) > 1e-9:
             raise ValueError(f"MapConfig.bucket ({self.bucket}) must be a whole multiple of voxel ({self.voxel})")
+        if not isinstance(self.forget_moved, bool):
+            raise ValueError(f"MapConfig.forget_moved must be a bool, got {self.forget_moved!r}")
         if isinstance(self.average, bool) or not isinstance(self.average, int) or self.average < 1:
             raise ValueError(f"MapConfig.average must be an integer >= 1, got {self.average!r}")
 
@@ -133,7 +141,7 @@ def _carve(origins, dirs, starts, ends, free, forigin, fcell, fdims, P, alive, h
             s += step
         # points on the clear part of the ray (before end - clear_back) are not there any more
         e_clear = e - clear_back
-        if e_clear <= starts[r]:
+        if clear_r <= 0.0 or e_clear <= starts[r]:
             continue
         s = starts[r]
         while s < e_clear:
@@ -302,7 +310,7 @@ class SensedMap:
         cfg = self.config
         removed = _carve(o[use], d[use], st[use], ends[use], self.free, self.origin, cfg.free_cell,
                          self.free_dims, self._P, self._alive, self.head, self._next, self.origin, cfg.bucket,
-                         self.bucket_dims, cfg.clear_radius, cfg.clear_backoff)
+                         self.bucket_dims, cfg.clear_radius if cfg.forget_moved else 0.0, cfg.clear_backoff)
         if removed:
             self.version += 1
         m = use & h
