@@ -72,6 +72,10 @@ class SearchConfig:
         arm_clearance: the flange (six links behind the tip) and the point one link behind it, where the
             arm begins, keep this distance from sensed surfaces: the arm (radius 0.06 m) must not be
             drawn into the structure by a path longer than the serpentine [m].
+        length_factor, length_slack: a state whose cost so far plus the heuristic exceeds
+            ``length_factor`` times the start's heuristic plus ``length_slack`` [m] is not expanded: a
+            detour that long would draw the arm into the structure, and without the bound a search
+            from a state with no way on expands every loop it can reach.
         nav_margin: the navigation function covers the box around the start and the goal grown by
             this [m].
         half_curvature: also primitives at half the largest curvature.
@@ -92,6 +96,8 @@ class SearchConfig:
     start_margin: float = 0.003
     link_length: float = 0.2
     arm_clearance: float = 0.08
+    length_factor: float = 1.5
+    length_slack: float = 0.3
     nav_margin: float = 0.35
     half_curvature: bool = True
 
@@ -343,7 +349,8 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
     """Hybrid A* (see the module docstring).  Node arrays are preallocated by the caller.
 
     ``cfg`` = [step, samples, cell, heading_bin, epsilon, w_turn, max_expansions, max_length,
-    start_relax, start_margin, kappa_max, body_radius, link_length, arm_clearance].
+    start_relax, start_margin, kappa_max, body_radius, link_length, arm_clearance, length_factor,
+    length_slack].
     Returns (status, final node, expansions, n_nodes).
     """
     step = cfg[0]
@@ -381,6 +388,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
     h_start = _heuristic(p0[0], p0[1], p0[2], h0[0], h0[1], h0[2], k0, k0, goals, reach, rest, nav, nav_origin,
                          nav_cell, radius)
     heap = [(h_start * eps, 0)]
+    bound = cfg[14] * h_start + cfg[15]
     best_node = 0
     best_h = h_start
     expansions = 0
@@ -470,6 +478,8 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
             NDIR[q] = m
             NEND[q] = s_end
             h = _heuristic(qx, qy, qz, tx, ty, tz, kk, k0, goals, reach, rest, nav, nav_origin, nav_cell, radius)
+            if g2 + h > bound:
+                continue  # even the most optimistic way on is too long for the body to follow
             if h < best_h:
                 best_h = h
                 best_node = q
@@ -547,7 +557,7 @@ def search(smap: SensedMap, start: ArrayLike, heading: ArrayLike, goals: ArrayLi
     cfg = np.array([config.step, config.samples, config.cell, config.heading_bin, config.epsilon, config.w_turn,
                     config.max_expansions, config.max_length, config.start_relax, config.start_margin,
                     1.0 / config.min_turn_radius, repulsion.body_radius, config.link_length,
-                    min(config.arm_clearance, smap.config.bucket)])
+                    min(config.arm_clearance, smap.config.bucket), config.length_factor, config.length_slack])
     rep = repulsion.vector()
     free, forigin, fcell, fdims = smap.free_arrays()
     box_lo = smap.origin
