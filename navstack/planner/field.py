@@ -141,18 +141,22 @@ class FieldPlanner:
             self._nav = cached = (k, self.map.version, nav, self.time)
         return cached[2]
 
-    def _plan_from(self, p: NDArray[np.float64], h: NDArray[np.float64], k: int, fresh: bool = False) -> Plan:
+    def _plan_from(self, p: NDArray[np.float64], h: NDArray[np.float64], k: int, at: float | None = None) -> Plan:
+        """Search from the state (p, h) for goals from ``k`` on, the body lying along the commanded path
+        behind arc length ``at`` (default: its end)."""
         cfg = self.config
         k = self._passed(p, k)
-        plan = search(self.map, p, h, self.goals, self.tolerances, k, cfg.search, cfg.repulsion,
-                      history=self._tail(7.5 * cfg.search.link_length), nav=self._navigation(p, k, fresh))
-        if plan.status != REACHED and not fresh:
-            return self._plan_from(p, h, k, fresh=True)
+        end = self.path.end_arc_length if at is None else at
+        history = self._history(end, 7.5 * cfg.search.link_length)
+        plan = search(self.map, p, h, self.goals, self.tolerances, k, cfg.search, cfg.repulsion, history=history,
+                      nav=self._navigation(p, k, False))
+        if plan.status != REACHED and self._nav is not None and self._nav[1] != self.map.version:
+            plan = search(self.map, p, h, self.goals, self.tolerances, k, cfg.search, cfg.repulsion,
+                          history=history, nav=self._navigation(p, k, True))  # the map has grown since
         return plan
 
-    def _tail(self, length: float, spacing: float = 0.01) -> NDArray[np.float64]:
-        """The last ``length`` [m] of the commanded path every ``spacing`` [m], oldest first, ending at its end."""
-        end = self.path.end_arc_length
+    def _history(self, end: float, length: float, spacing: float = 0.01) -> NDArray[np.float64]:
+        """The commanded path's ``length`` [m] up to arc length ``end``, every ``spacing`` [m], oldest first."""
         s = np.append(np.arange(max(end - length, 0.0), end - 0.5 * spacing, spacing), end)
         return np.array([self.path.point_at(x)[0] for x in s])
 
@@ -184,19 +188,24 @@ class FieldPlanner:
         self.replans += 1
         self._planned_at = self.time
         self._planned_version = self.map.version
-        if plan.status == NO_PATH:
-            self._start_escape()
+        if plan.status != REACHED:
+            # no way on found from here (boxed in, or the budget spent in a maze): back out to where
+            # one exists; with none, explore along the partial plan rather than give up
+            self._start_escape(fallback=plan if plan.status != NO_PATH else None)
             return
         self.follower = PlanFollower(plan, self.config.steering, self.follower.v)
 
-    def _start_escape(self) -> None:
+    def _start_escape(self, fallback: Plan | None = None) -> None:
         # a new escape soon after the last branch point must go back beyond it (no retreat cycles)
         limit = self.path.end_arc_length
         if self._last_branch is not None and limit - self._last_branch < 0.3:
             limit = self._last_branch - self.config.escape.step
-        found = find_branch_point(self.path, lambda p, h: self._plan_from(p, h, self.command_goal, fresh=True),
+        found = find_branch_point(self.path, lambda p, h, at: self._plan_from(p, h, self.command_goal, at),
                                   self.config.escape, before=limit)
         if found is None:
+            if fallback is not None:
+                self.follower = PlanFollower(fallback, self.config.steering, self.follower.v)
+                return
             self.stalled = True
             self.mode = "stalled"
             return
