@@ -44,7 +44,7 @@ from navstack.planner.potential import (
     navigation_function,
 )
 
-__all__ = ["NO_PATH", "PARTIAL", "REACHED", "Plan", "SearchConfig", "search"]
+__all__ = ["NO_PATH", "PARTIAL", "REACHED", "Plan", "SearchConfig", "search", "still_clear"]
 
 REACHED, PARTIAL, NO_PATH = 0, 1, 2
 
@@ -496,6 +496,57 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
                 best_node = q
             heapq.heappush(heap, (g2 + eps * h, q))
     return 2, best_node, expansions, n_nodes
+
+
+@numba.njit(cache=True)
+def _path_clear(pts, hist, every, link, r_block, r_arm, P, alive, head, nxt, origin, bucket,
+                bdims):  # pragma: no cover - jitted
+    """True if the tip path ``pts`` keeps ``r_block`` from every surface point at each sample, and the
+    body behind it (checked every ``every`` samples, the history ``hist`` behind ``pts[0]``) is clear."""
+    n = pts.shape[0]
+    line = np.empty((n + hist.shape[0] + 2, 3))
+    chain_pts = np.empty((8, 3))
+    for i in range(n):
+        if nearest_distance(pts[i, 0], pts[i, 1], pts[i, 2], r_block, P, alive, head, nxt, origin, bucket,
+                            bdims) < r_block:
+            return False
+    for i in range(every, n, every):
+        m = 0
+        for j in range(i, -1, -1):
+            line[m] = pts[j]
+            m += 1
+        for j in range(hist.shape[0] - 2, -1, -1):
+            line[m] = hist[j]
+            m += 1
+        c = _chain(line, m, link, 7, chain_pts)
+        if c < 7:
+            continue
+        for f in (0.25, 0.5, 0.75):
+            x = chain_pts[0, 0] + f * (pts[i, 0] - chain_pts[0, 0])
+            y = chain_pts[0, 1] + f * (pts[i, 1] - chain_pts[0, 1])
+            z = chain_pts[0, 2] + f * (pts[i, 2] - chain_pts[0, 2])
+            if nearest_distance(x, y, z, r_block, P, alive, head, nxt, origin, bucket, bdims) < r_block:
+                return False
+        for q in (5, 6):
+            if nearest_distance(chain_pts[q, 0], chain_pts[q, 1], chain_pts[q, 2], r_arm, P, alive, head, nxt,
+                                origin, bucket, bdims) < r_arm:
+                return False
+    return True
+
+
+def still_clear(smap: SensedMap, plan: Plan, s: float, history: ArrayLike, config: SearchConfig,
+                repulsion: Repulsion) -> bool:
+    """Whether the rest of ``plan`` from arc length ``s`` is still clear in the map as it is now (the
+    tip and the body, as :func:`search` requires), the body lying along ``history`` behind it."""
+    i = int(np.searchsorted(plan.arc, s))
+    pts = np.ascontiguousarray(plan.points[i:])
+    if len(pts) == 0:
+        return True
+    hist = np.asarray(history, dtype=np.float64).reshape(-1, 3)
+    every = max(1, int(round(config.step / max(float(np.median(np.diff(plan.arc))) if len(plan.arc) > 1 else 1.0,
+                                                1e-6))))
+    return bool(_path_clear(pts, hist, every, config.link_length, repulsion.r_block,
+                            min(config.arm_clearance, smap.config.bucket), *smap.arrays()))
 
 
 # ------------------------------------------------------------------------------------------ driver
