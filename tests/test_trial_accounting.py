@@ -1,0 +1,198 @@
+"""How a trial counts: contacts, min clearance, the end reason's precedence, and the seed.
+
+These tests drive ``run_trial`` itself with small stand-ins for what they do not test: a scripted
+sequence of clearances in place of the scene's distance query, and a planner that holds the tip still (or
+gives up at a chosen step), so each trial lasts a few control steps and every expected number is known
+in advance. The seed is exercised through the sensing ``field`` planner, whose ray noise and dropouts
+are the only random draws of a trial.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import navstack.trial
+from navstack.jpl import jpl_serpentine
+from navstack.planner import TipCommand
+from navstack.sim.rays import RaySensor
+from navstack.sim.scene import Scene
+from navstack.trial import TrialConfig, run_trial
+from navstack.world import world_from_dict
+
+DT = TrialConfig().servo.control_dt
+
+
+def _tip_start(world) -> np.ndarray:
+    """The tip at t = 0 in the world frame (from the kinematics, not from the trial)."""
+    F = jpl_serpentine().frames(world.robot.q0)
+    T0 = world.robot.base.transform()
+    return T0[:3, :3] @ F[21, :3, 3] + T0[:3, 3]
+
+
+def _world(time_limit: float, goal_offset=(0.3, 0.0, 0.0)):
+    """An obstacle-free world whose one goal lies ``goal_offset`` from the start tip."""
+    data = {"format": "navstack-world/1", "name": "accounting", "robot": {}, "obstacles": [],
+            "goals": [{"position": [0.0, 0.0, 0.0], "tolerance": 0.02}], "time_limit": time_limit}
+    tip = _tip_start(world_from_dict(data))
+    data["goals"][0]["position"] = (tip + np.asarray(goal_offset)).tolist()
+    return world_from_dict(data)
+
+
+class _Hold:
+    """A planner that commands the start tip, at rest, and reports a stall at step ``stall_at``."""
+
+    def __init__(self, start, stall_at=None):
+        self.start = np.array(start, dtype=np.float64)
+        self.stall_at = stall_at
+        self.calls = 0
+
+    def step(self, dt, tip, heading, reading, goal, tolerance, approach=False, next_goal=None):
+        self.calls += 1
+        stalled = self.stall_at is not None and self.calls >= self.stall_at
+        return TipCommand(self.start.copy(), np.zeros(3), stalled)
+
+
+@pytest.fixture
+def hold_planner(monkeypatch):
+    """Make ``planner="scripted"`` build a :class:`_Hold` (``stall_at`` set through the returned dict)."""
+    opts = {"stall_at": None}
+    monkeypatch.setattr(navstack.trial, "make_scripted_planner", lambda ctx: _Hold(ctx.start, opts["stall_at"]))
+    return opts
+
+
+@pytest.fixture
+def clearances(monkeypatch):
+    """Replace the scene's clearance query by a scripted sequence; returns (sequence list, calls list).
+
+    Fill the sequence before the trial; the query returns its values in order (the last one repeated).
+    """
+    seq: list[float] = []
+    calls: list[float] = []
+
+    def fake(self, robot_id, max_distance=1.0):
+        v = seq[min(len(calls), len(seq) - 1)]
+        calls.append(v)
+        return v
+
+    monkeypatch.setattr(Scene, "clearance", fake)
+    return seq, calls
+
+
+# One value per measurement: t = 0, then one per control step. A 0.3 s limit gives 9 steps, 10 values.
+SEQ = [0.20, 0.0, 0.01, -0.001, -0.0049, 0.30, -0.0051, -0.02, 0.004, 1e-9]
+
+
+def test_every_step_at_or_below_zero_clearance_counts_as_a_contact(hold_planner, clearances):
+    seq, calls = clearances
+    seq[:] = SEQ
+    r = run_trial(_world(time_limit=0.3), planner="scripted")
+    assert r.steps == 9 and len(calls) == r.steps + 1 == len(SEQ)  # one measurement per step plus t = 0
+    expected = sum(v <= 0.0 for v in SEQ)  # 0.0 touches; -1 mm and -4.9 mm are shallow contacts
+    assert expected == 5
+    assert r.metrics["contacts"] == expected
+    assert r.metrics["min_clearance"] == pytest.approx(-0.02, abs=0)
+    assert r.reason == "collision" and not r.success  # the time limit came, but the robot touched something
+
+
+@pytest.mark.parametrize("depth", [0.0, -1e-4, -0.003])
+def test_a_single_shallow_contact_is_counted(hold_planner, clearances, depth):
+    seq, _ = clearances
+    seq[:] = [0.1, 0.1, depth, 0.1]
+    r = run_trial(_world(time_limit=0.2), planner="scripted")
+    assert r.metrics["contacts"] == 1 and r.reason == "collision"
+    assert r.metrics["min_clearance"] == depth
+
+
+def test_contacts_count_steps_not_events(hold_planner, clearances):
+    """A robot resting in contact for the whole trial: every measurement (t = 0 and each step) counts."""
+    seq, calls = clearances
+    seq[:] = [-0.01]
+    r = run_trial(_world(time_limit=0.5), planner="scripted")
+    assert r.steps == 15 and r.metrics["contacts"] == len(calls) == 16
+
+
+def test_no_contact_times_out(hold_planner, clearances):
+    seq, calls = clearances
+    seq[:] = [0.2, 0.001, 1e-9, 0.05]
+    r = run_trial(_world(time_limit=0.3), planner="scripted")
+    assert r.reason == "timeout" and not r.success
+    assert r.metrics["contacts"] == 0 and r.metrics["min_clearance"] == 1e-9
+    assert r.sim_time == pytest.approx(9 * DT) and r.sim_time <= 0.3
+
+
+def test_goal_reached_with_a_contact_is_a_collision(hold_planner, clearances):
+    """The goal is where the tip starts: reached at t = 0, before any step; the contact still decides."""
+    seq, _ = clearances
+    for first, reason in ((-0.0005, "collision"), (0.0005, "reached")):
+        seq[:] = [first]
+        r = run_trial(_world(time_limit=1.0, goal_offset=(0.0, 0.0, 0.0)), planner="scripted")
+        assert (r.reason, r.success, r.steps, r.goals_reached) == (reason, reason == "reached", 0, 1), first
+
+
+def test_stall_with_a_contact_is_a_collision(hold_planner, clearances):
+    seq, _ = clearances
+    hold_planner["stall_at"] = 4
+    for values, reason in (([0.1, 0.1, -0.002, 0.1], "collision"), ([0.1], "stalled")):
+        seq[:] = values
+        r = run_trial(_world(time_limit=5.0), planner="scripted")
+        assert r.reason == reason and not r.success
+        assert r.steps == 3  # the fourth planner call gave up before its step was taken
+
+
+# ------------------------------------------------------------------------------------------ the seed
+@pytest.fixture
+def raw_readings(monkeypatch):
+    """Record every raw (noisy) tip reading the trial's sensor produces."""
+    log: list = []
+    original = RaySensor.read
+
+    def read(self, tip_T_world):
+        reading = original(self, tip_T_world)
+        log.append(reading)
+        return reading
+
+    monkeypatch.setattr(RaySensor, "read", read)
+    return log
+
+
+def _field_trial(seed, log, out):
+    """1.5 s of the sensing planner heading for a goal past a sphere beside its way (in sensor range)."""
+    data = {"format": "navstack-world/1", "name": "seed", "robot": {}, "time_limit": 1.5,
+            "obstacles": [], "goals": [{"position": [0.0, 0.0, 0.0]}]}
+    world = world_from_dict(data)
+    F = jpl_serpentine().frames(world.robot.q0)
+    R0 = world.robot.base.transform()[:3, :3]
+    tip, heading, side = _tip_start(world), R0 @ F[20, :3, 0], R0 @ F[20, :3, 1]
+    data["goals"][0]["position"] = (tip + 0.5 * heading).tolist()
+    data["obstacles"] = [{"type": "sphere", "center": (tip + 0.22 * heading + 0.1 * side).tolist(), "radius": 0.07}]
+    log.clear()
+    r = run_trial(world_from_dict(data), planner="field", seed=seed, out_dir=out)
+    return r, list(log), np.load(out / "trajectory.npz")["q"]
+
+
+def test_the_seed_drives_sensor_noise_and_the_trajectory(raw_readings, tmp_path):
+    a, ra, qa = _field_trial(7, raw_readings, tmp_path / "a")
+    hits = int(sum(x.hit.sum() for x in ra))
+    print(f"\nseed 7: {len(ra)} readings, {hits} ray hits, {a.reason} after {a.sim_time:.2f} s")
+    assert a.seed == 7 and len(ra) == a.steps == 45
+    assert hits > 100  # the sphere is in range: noise reaches the filter and the planner
+    # the same seed again: identical readings (noise and dropouts), joints and result
+    b, rb, qb = _field_trial(7, raw_readings, tmp_path / "b")
+    assert len(rb) == len(ra)
+    for x, y in zip(ra, rb, strict=True):
+        np.testing.assert_array_equal(x.ranges, y.ranges)
+        np.testing.assert_array_equal(x.valid, y.valid)
+    np.testing.assert_array_equal(qa, qb)
+    da, db = a.to_dict(), b.to_dict()
+    da.pop("wall_time"), db.pop("wall_time")
+    assert da == db
+    # another seed: other noise on the same first pose, other dropouts, and another trajectory
+    c, rc, qc = _field_trial(8, raw_readings, tmp_path / "c")
+    assert c.seed == 8
+    np.testing.assert_array_equal(ra[0].origins, rc[0].origins)  # t = 0: the same pose, the same true ranges
+    both = ra[0].hit & rc[0].hit
+    print(f"rays hitting at t = 0 in both: {both.sum()}")
+    assert both.sum() >= 3 and np.all(ra[0].ranges[both] != rc[0].ranges[both])
+    assert any(not np.array_equal(x.valid, y.valid) for x, y in zip(ra, rc, strict=False))
+    assert not np.array_equal(qa, qc)
