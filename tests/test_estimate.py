@@ -320,3 +320,49 @@ def test_process_noise_sets_how_fast_the_rate_follows():
     print(f"\nrate state after 0.25 s, as a fraction of the true rate: {rates}")
     assert 0.35 < rates["default"] < 0.6
     assert rates["x10"] > 0.75 and rates["x0.1"] < 0.3
+
+
+def test_points_are_origin_plus_filtered_range_along_each_ray():
+    """From a tip away from the world origin: tracked and measured points, coasting rays included."""
+    origin = np.array([0.4, -0.2, 1.1])
+    dirs = np.array([[1.0, 0, 0], [0, 1.0, 0], [0, 0.6, 0.8]])
+
+    def reading(ranges, valid):
+        ranges = np.asarray(ranges, dtype=np.float64)
+        valid = np.asarray(valid)
+        hit = valid & (ranges < 0.4)
+        return SensorReading(np.tile(origin, (3, 1)), dirs, np.where(valid, ranges, np.nan), hit, valid, 0.4)
+
+    est = RangeEstimator(3, EstimatorConfig(measurement_std=0.004))
+    est.update(reading([0.25, 0.3, 0.4], [True, True, True]), 0.05, np.zeros(3))
+    out = est.update(reading([0.25, 0.3, 0.4], [True, False, True]), 0.05, np.zeros(3))  # ray 1 coasts
+    assert out.tracking.tolist() == [True, True, False] and out.measured.tolist() == [True, False, False]
+    np.testing.assert_allclose(out.points, origin + np.array([[0.25, 0, 0], [0, 0.3, 0]]), atol=1e-12)
+    np.testing.assert_allclose(out.measured_points, [origin + [0.25, 0, 0]], atol=1e-12)
+
+
+def test_max_coast_zero_is_allowed_and_negative_is_not():
+    assert EstimatorConfig(max_coast=0).max_coast == 0
+    with pytest.raises(ValueError, match="max_coast"):
+        EstimatorConfig(max_coast=-1)
+    est = RangeEstimator(1, EstimatorConfig(max_coast=0))
+    est.update(_single_ray_reading(0.3), 0.05, np.zeros(3))
+    assert not est.update(_single_ray_reading(None, valid=False), 0.05, np.zeros(3)).tracking[0]  # no coasting
+
+
+@pytest.mark.parametrize("sensor", [True, "5", 5.0, None])
+def test_the_sensor_argument_is_a_sensor_config_or_a_ray_count(sensor):
+    with pytest.raises(TypeError, match="SensorConfig or a number of rays"):
+        RangeEstimator(sensor)
+
+
+def test_reset_forgets_every_track():
+    est = RangeEstimator(1, EstimatorConfig(measurement_std=0.004))
+    for _ in range(5):
+        est.update(_single_ray_reading(0.3), 0.05, np.zeros(3))
+    est.reset()
+    out = est.update(_single_ray_reading(0.2), 0.05, np.zeros(3))  # a new track at the reading, no gate reset
+    assert est.n_resets == 0 and out.ranges[0] == 0.2 and out.range_std[0] == pytest.approx(0.004)
+    est.reset()
+    out = est.update(_single_ray_reading(None, valid=False), 0.05, np.zeros(3))
+    assert not out.tracking[0]  # nothing left to coast
