@@ -366,3 +366,20 @@ def test_reset_forgets_every_track():
     est.reset()
     out = est.update(_single_ray_reading(None, valid=False), 0.05, np.zeros(3))
     assert not out.tracking[0]  # nothing left to coast
+
+
+def test_config_accepts_any_positive_gate_and_estimates_are_frozen():
+    import dataclasses
+
+    assert EstimatorConfig(gate_sigma=0.5).gate_sigma == 0.5  # tight, but a gate
+    out = RangeEstimator(1).update(_single_ray_reading(0.3), 0.05, np.zeros(3))
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        out.ranges = np.zeros(1)
+
+
+def test_readings_of_the_wrong_size_and_short_velocities_are_refused():
+    three = SensorReading(np.zeros((3, 3)), np.eye(3), np.full(3, 0.3), np.ones(3, bool), np.ones(3, bool), 0.4)
+    with pytest.raises(ValueError, match="reading has 3 rays, the estimator was built for 1"):
+        RangeEstimator(1).update(three, 0.05)
+    with pytest.raises(ValueError, match="tip_velocity"):
+        RangeEstimator(1).update(_single_ray_reading(0.3), 0.05, [0.1, 0.0])

@@ -9,6 +9,9 @@ are the only random draws of a trial.
 
 from __future__ import annotations
 
+import json
+import time
+
 import numpy as np
 import pytest
 
@@ -40,24 +43,27 @@ def _world(time_limit: float, goal_offset=(0.3, 0.0, 0.0)):
 
 
 class _Hold:
-    """A planner that commands the start tip, at rest, and reports a stall at step ``stall_at``."""
+    """A planner that commands the start tip, at rest; at call ``stall_at`` it reports a stall, at call
+    ``raise_at`` it raises ``exc``."""
 
-    def __init__(self, start, stall_at=None):
+    def __init__(self, start, stall_at=None, raise_at=None, exc=None):
         self.start = np.array(start, dtype=np.float64)
-        self.stall_at = stall_at
+        self.stall_at, self.raise_at, self.exc = stall_at, raise_at, exc
         self.calls = 0
 
     def step(self, dt, tip, heading, reading, goal, tolerance, approach=False, next_goal=None):
         self.calls += 1
+        if self.raise_at is not None and self.calls >= self.raise_at:
+            raise self.exc
         stalled = self.stall_at is not None and self.calls >= self.stall_at
         return TipCommand(self.start.copy(), np.zeros(3), stalled)
 
 
 @pytest.fixture
 def hold_planner(monkeypatch):
-    """Make ``planner="scripted"`` build a :class:`_Hold` (``stall_at`` set through the returned dict)."""
-    opts = {"stall_at": None}
-    monkeypatch.setattr(navstack.trial, "make_scripted_planner", lambda ctx: _Hold(ctx.start, opts["stall_at"]))
+    """Make ``planner="scripted"`` build a :class:`_Hold` (its options set through the returned dict)."""
+    opts = {"stall_at": None, "raise_at": None, "exc": None}
+    monkeypatch.setattr(navstack.trial, "make_scripted_planner", lambda ctx: _Hold(ctx.start, **opts))
     return opts
 
 
@@ -119,6 +125,8 @@ def test_no_contact_times_out(hold_planner, clearances):
     assert r.reason == "timeout" and not r.success
     assert r.metrics["contacts"] == 0 and r.metrics["min_clearance"] == 1e-9
     assert r.sim_time == pytest.approx(9 * DT) and r.sim_time <= 0.3
+    # the tip held still: the errors are the servo's droop under gravity, about a millimetre (README)
+    assert 0.0 < r.metrics["tip_error_max"] < 0.003 and 0.0 < r.metrics["slither_deviation_max"] < 0.003
 
 
 def test_goal_reached_with_a_contact_is_a_collision(hold_planner, clearances):
@@ -196,3 +204,39 @@ def test_the_seed_drives_sensor_noise_and_the_trajectory(raw_readings, tmp_path)
     assert both.sum() >= 3 and np.all(ra[0].ranges[both] != rc[0].ranges[both])
     assert any(not np.array_equal(x.valid, y.valid) for x, y in zip(ra, rc, strict=False))
     assert not np.array_equal(qa, qc)
+
+
+# ------------------------------------------------------------------------------------------ other endings
+def test_an_exception_inside_the_loop_is_an_error_outcome(hold_planner, clearances, tmp_path):
+    seq, _ = clearances
+    seq[:] = [0.1]
+    hold_planner.update(raise_at=4, exc=RuntimeError("boom"))
+    out = tmp_path / "deep" / "er"  # the output folder and its parents are created
+    r = run_trial(_world(time_limit=5.0), planner="scripted", out_dir=out)
+    assert (r.reason, r.success, r.error, r.steps) == ("error", False, "RuntimeError: boom", 3)
+    saved = json.loads((out / "result.json").read_text())
+    assert saved["reason"] == "error" and saved["error"] == "RuntimeError: boom"
+    npz = np.load(out / "trajectory.npz")
+    assert npz["t"].shape == (4,) and npz["q"].shape == (4, 20)  # t = 0 and the three steps taken
+
+
+def test_an_interrupt_saves_a_partial_result_and_propagates(hold_planner, clearances, tmp_path):
+    seq, _ = clearances
+    seq[:] = [0.1, -0.001, 0.1]
+    hold_planner.update(raise_at=6, exc=KeyboardInterrupt())
+    t0 = time.perf_counter()
+    with pytest.raises(KeyboardInterrupt):
+        run_trial(_world(time_limit=5.0), planner="scripted", out_dir=tmp_path)
+    elapsed = time.perf_counter() - t0
+    saved = json.loads((tmp_path / "result.json").read_text())
+    assert (saved["reason"], saved["error"], saved["steps"], saved["success"]) == ("error", "interrupted", 5, False)
+    assert saved["metrics"]["contacts"] == 1
+    assert 0.0 <= saved["wall_time"] <= elapsed  # the trial's own duration, within the call's
+    assert np.load(tmp_path / "trajectory.npz")["t"].shape == (6,)
+
+
+@pytest.mark.parametrize("name", ["scripted_speed", "clearance_horizon", "joint_limit_time", "joint_limit_lag"])
+@pytest.mark.parametrize("value", [0.0, -0.5, float("nan"), float("inf"), "1"])
+def test_trial_config_refuses_non_positive_or_non_finite_values(name, value):
+    with pytest.raises(ValueError, match=f"TrialConfig.{name} must be a positive number"):
+        TrialConfig(**{name: value})

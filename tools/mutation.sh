@@ -10,7 +10,8 @@
 # report.txt (every surviving mutant with its diff) and summary.txt (kill rate, survivors; a configuration's
 # confirm-command re-tests the survivors with more tests first); rerunning resumes an unfinished session.
 # Needs the test and mutation extras (pip install -e '.[test,mutation]');
-# PYTHON selects the interpreter (default .venv/bin/python).
+# PYTHON selects the interpreter (default .venv/bin/python); SAMPLE=N [SEED=S] tests a seeded random sample of
+# N mutants instead of all (for slow modules; the kill rate is then an estimate).
 set -euo pipefail
 module=${1:?usage: tools/mutation.sh MODULE [OUT_DIR]}
 repo=$(cd "$(dirname "$0")/.." && pwd)
@@ -31,6 +32,7 @@ if [ ! -f "$session" ]; then
     "$bin/cosmic-ray" init "$cfg" "$session"
     "$bin/cr-filter-operators" "$session" "$cfg"
     "$bin/cr-filter-pragma" "$session"
+    if [ -n "${SAMPLE:-}" ]; then "$py" "$repo/tools/mutation_sample.py" "$session" "$SAMPLE" --seed "${SEED:-0}"; fi
     "$bin/cosmic-ray" baseline "$cfg"
 fi
 "$bin/cosmic-ray" exec "$cfg" "$session"
