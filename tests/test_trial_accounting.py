@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import navstack.trial
-from navstack.jpl import jpl_serpentine
+from navstack.jpl import LOWER, UPPER, jpl_serpentine
 from navstack.planner import TipCommand
 from navstack.sim.rays import RaySensor
 from navstack.sim.scene import Scene
@@ -121,7 +121,9 @@ def test_contacts_count_steps_not_events(hold_planner, clearances):
 def test_no_contact_times_out(hold_planner, clearances):
     seq, calls = clearances
     seq[:] = [0.2, 0.001, 1e-9, 0.05]
+    t0 = time.perf_counter()
     r = run_trial(_world(time_limit=0.3), planner="scripted")
+    assert 0.0 <= r.wall_time <= time.perf_counter() - t0  # its own duration, within the call's
     assert r.reason == "timeout" and not r.success
     assert r.metrics["contacts"] == 0 and r.metrics["min_clearance"] == 1e-9
     assert r.sim_time == pytest.approx(9 * DT) and r.sim_time <= 0.3
@@ -212,8 +214,9 @@ def test_an_exception_inside_the_loop_is_an_error_outcome(hold_planner, clearanc
     seq[:] = [0.1]
     hold_planner.update(raise_at=4, exc=RuntimeError("boom"))
     out = tmp_path / "deep" / "er"  # the output folder and its parents are created
-    r = run_trial(_world(time_limit=5.0), planner="scripted", out_dir=out)
+    r = run_trial(_world(time_limit=5.0), planner="scripted", out_dir=out, render=True)
     assert (r.reason, r.success, r.error, r.steps) == ("error", False, "RuntimeError: boom", 3)
+    assert not (out / "scene.png").exists()  # no picture of a failed simulation
     saved = json.loads((out / "result.json").read_text())
     assert saved["reason"] == "error" and saved["error"] == "RuntimeError: boom"
     npz = np.load(out / "trajectory.npz")
@@ -240,3 +243,113 @@ def test_an_interrupt_saves_a_partial_result_and_propagates(hold_planner, cleara
 def test_trial_config_refuses_non_positive_or_non_finite_values(name, value):
     with pytest.raises(ValueError, match=f"TrialConfig.{name} must be a positive number"):
         TrialConfig(**{name: value})
+
+
+def test_a_non_finite_command_is_an_error(hold_planner, monkeypatch):
+    def nan_position(self, *args, **kwargs):
+        return TipCommand(np.array([np.nan, 0.0, 0.0]), np.zeros(3), False)
+
+    monkeypatch.setattr(_Hold, "step", nan_position)
+    r = run_trial(_world(time_limit=1.0), planner="scripted")
+    assert r.reason == "error" and "planner produced a non-finite tip command at step 0" in r.error
+
+
+def test_the_planner_gets_the_current_and_next_goal_and_approach_on_the_last(monkeypatch):
+    calls = []
+
+    class Recorder(_Hold):
+        def step(self, dt, tip, heading, reading, goal, tolerance, approach=False, next_goal=None):
+            calls.append((np.array(goal), None if next_goal is None else np.array(next_goal), approach, tolerance))
+            return TipCommand(self.start.copy(), np.zeros(3), len(calls) >= 2)
+
+    monkeypatch.setattr(navstack.trial, "make_scripted_planner", lambda ctx: Recorder(ctx.start))
+    world = _world(time_limit=1.0)
+    tip = _tip_start(world)
+    data = {"format": "navstack-world/1", "name": "goals", "robot": {}, "obstacles": [], "time_limit": 1.0,
+            "goals": [{"position": tip.tolist()},  # reached at t = 0
+                      {"position": (tip + [0.3, 0, 0]).tolist(), "tolerance": 0.03},
+                      {"position": (tip + [0.3, 0.2, 0]).tolist(), "tolerance": 0.04}]}
+    r = run_trial(world_from_dict(data), planner="scripted")
+    assert r.reason == "stalled" and r.goals_reached == 1
+    goal, nxt, approach, tol = calls[0]
+    np.testing.assert_allclose(goal, tip + [0.3, 0, 0])
+    np.testing.assert_allclose(nxt, tip + [0.3, 0.2, 0])
+    assert approach is False and tol == 0.03
+    data["goals"] = data["goals"][:2]  # now the goal being pursued is the last one
+    calls.clear()
+    run_trial(world_from_dict(data), planner="scripted")
+    assert calls[0][1] is None and calls[0][2] is True
+
+
+# ------------------------------------------------------------------------------------------ joint limits
+class _PinController:
+    """A controller that commands the start posture with joint ``pin`` (if any) at ``value``."""
+
+    def __init__(self, q0, pin=None, value=None):
+        self.theta_d = np.array(q0, dtype=np.float64)
+        if pin is not None:
+            self.theta_d[pin] = value
+        self.thetadot_d = np.zeros_like(self.theta_d)
+
+        class _Path:
+            @staticmethod
+            def distance_to_path(p):
+                return 0.0
+
+        self.path = _Path()
+
+    def step(self, x_d, xdot_d):
+        return self.theta_d.copy()
+
+
+@pytest.mark.parametrize(
+    "pin, value, command, reason, steps",
+    [
+        (None, None, "far", "timeout", 90),  # lagging, no joint at a limit
+        (8, UPPER[8], "far", "joint_limit", 60),  # at the upper limit and lagging for 2 s
+        (9, LOWER[9], "far", "joint_limit", 60),  # at the lower limit
+        (8, UPPER[8] - 1e-3, "far", "timeout", 90),  # just inside the limit
+        (8, UPPER[8], "follow", "timeout", 90),  # at the limit, but the tip keeps up with its command
+    ],
+)
+def test_joint_limit_needs_a_pinned_joint_and_a_lagging_tip_for_2_s(monkeypatch, clearances, pin, value, command,
+                                                                   reason, steps):
+    seq, _ = clearances
+    seq[:] = [0.3]
+
+    class Planner(_Hold):
+        def step(self, dt, tip, heading, reading, goal, tolerance, approach=False, next_goal=None):
+            x_d = self.start + [0.0, 0.0, 0.2] if command == "far" else np.array(tip)  # 0.2 m off, or on the tip
+            return TipCommand(x_d, np.zeros(3), False)
+
+    monkeypatch.setattr(navstack.trial, "make_scripted_planner", lambda ctx: Planner(ctx.start))
+    monkeypatch.setattr(navstack.trial, "make_slither_controller",
+                        lambda chain, q0, dt, cfg: _PinController(q0, pin, value))
+    r = run_trial(_world(time_limit=3.0), planner="scripted")
+    assert TrialConfig().joint_limit_time == 2.0 and round(2.0 / DT) == 60
+    assert (r.reason, r.steps) == (reason, steps)
+
+
+@pytest.mark.parametrize("frame", [15, 2], ids=["serpentine J3", "arm shoulder"])
+def test_contact_is_measured_not_simulated(hold_planner, monkeypatch, frame):
+    """A sphere through the robot at t = 0: the robot is not pushed out, the depth stays as it was."""
+    seen = []
+    original = Scene.clearance
+
+    def record(self, robot_id, max_distance=1.0):
+        seen.append(original(self, robot_id, max_distance))
+        return seen[-1]
+
+    monkeypatch.setattr(Scene, "clearance", record)
+    data = {"format": "navstack-world/1", "name": "inside", "robot": {}, "time_limit": 0.5,
+            "goals": [{"position": [0.0, 0.0, 0.0]}], "obstacles": []}
+    world = world_from_dict(data)
+    F = jpl_serpentine().frames(world.robot.q0)
+    T0 = world.robot.base.transform()
+    centre = T0[:3, :3] @ F[frame, :3, 3] + T0[:3, 3]
+    data["goals"][0]["position"] = (_tip_start(world) + [0.0, 0.0, 0.3]).tolist()
+    data["obstacles"] = [{"type": "sphere", "center": centre.tolist(), "radius": 0.08}]
+    r = run_trial(world_from_dict(data), planner="scripted")
+    print(f"\nclearances from {seen[0] * 1e3:.1f} to {max(seen) * 1e3:.1f} mm")
+    assert seen[0] < -0.09  # the robot's capsules cross the sphere's centre
+    assert max(seen) - min(seen) < 0.002 and r.metrics["contacts"] == len(seen) == r.steps + 1
