@@ -383,3 +383,45 @@ def test_readings_of_the_wrong_size_and_short_velocities_are_refused():
         RangeEstimator(1).update(three, 0.05)
     with pytest.raises(ValueError, match="tip_velocity"):
         RangeEstimator(1).update(_single_ray_reading(0.3), 0.05, [0.1, 0.0])
+
+
+def test_by_default_a_track_coasts_through_five_dropouts():
+    """The documented default (max_coast 5): five dropouts in a row are bridged, the sixth drops the track."""
+    est = RangeEstimator(1, EstimatorConfig(measurement_std=0.004))
+    est.update(_single_ray_reading(0.3), 0.05, np.zeros(3))
+    for k in range(5):
+        assert est.update(_single_ray_reading(None, valid=False), 0.05, np.zeros(3)).tracking[0], k
+    assert not est.update(_single_ray_reading(None, valid=False), 0.05, np.zeros(3)).tracking[0]
+
+
+def test_an_exact_sensor_still_gets_a_proper_filter():
+    """measurement_std 0 (an exact sensor) is floored at 0.1 mm, so the filter's variances stay positive."""
+    est = RangeEstimator(1, EstimatorConfig(measurement_std=0.0))
+    out = est.update(_single_ray_reading(0.3), 0.05, np.zeros(3))
+    assert out.range_std[0] == pytest.approx(1e-4)
+    for _ in range(20):
+        out = est.update(_single_ray_reading(0.3), 0.05, np.zeros(3))
+    assert 0.0 < out.range_std[0] < 1e-4 and out.ranges[0] == pytest.approx(0.3, abs=1e-9)
+
+
+@pytest.mark.parametrize("field", ["measurement_std", "rate_process_std", "initial_rate_std", "gate_sigma"])
+@pytest.mark.parametrize("value", [True, "0.1", None])
+def test_config_numbers_must_be_numbers(field, value):
+    import dataclasses
+
+    with pytest.raises(ValueError, match=f"EstimatorConfig.{field} must be a number"):
+        EstimatorConfig(**{field: value})
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        EstimatorConfig().gate_sigma = 1.0
+
+
+@pytest.mark.parametrize("dt", [True, float("nan"), float("inf"), -0.05, 0.0, "0.05"])
+def test_dt_must_be_a_positive_finite_number(dt):
+    with pytest.raises(ValueError, match="dt must be a positive number of seconds"):
+        RangeEstimator(1).update(_single_ray_reading(0.3), dt, np.zeros(3))
+
+
+@pytest.mark.parametrize("v", [[0.1, 0.0], [0.1, 0.0, 0.0, 0.0], [[0.1], [0.0], [0.0]], [0.0, np.inf, 0.0]])
+def test_tip_velocity_must_be_three_finite_numbers(v):
+    with pytest.raises(ValueError, match="tip_velocity must be 3 finite numbers"):
+        RangeEstimator(1).update(_single_ray_reading(0.3), 0.05, v)
