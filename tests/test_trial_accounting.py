@@ -259,7 +259,8 @@ def test_the_planner_gets_the_current_and_next_goal_and_approach_on_the_last(mon
 
     class Recorder(_Hold):
         def step(self, dt, tip, heading, reading, goal, tolerance, approach=False, next_goal=None):
-            calls.append((np.array(goal), None if next_goal is None else np.array(next_goal), approach, tolerance))
+            calls.append((np.array(goal), None if next_goal is None else np.array(next_goal), approach, tolerance,
+                          np.array(heading)))
             return TipCommand(self.start.copy(), np.zeros(3), len(calls) >= 2)
 
     monkeypatch.setattr(navstack.trial, "make_scripted_planner", lambda ctx: Recorder(ctx.start))
@@ -271,10 +272,12 @@ def test_the_planner_gets_the_current_and_next_goal_and_approach_on_the_last(mon
                       {"position": (tip + [0.3, 0.2, 0]).tolist(), "tolerance": 0.04}]}
     r = run_trial(world_from_dict(data), planner="scripted")
     assert r.reason == "stalled" and r.goals_reached == 1
-    goal, nxt, approach, tol = calls[0]
+    goal, nxt, approach, tol, _ = calls[0]
     np.testing.assert_allclose(goal, tip + [0.3, 0, 0])
     np.testing.assert_allclose(nxt, tip + [0.3, 0.2, 0])
     assert approach is False and tol == 0.03
+    F = jpl_serpentine().frames(world.robot.q0)
+    np.testing.assert_allclose(calls[0][4], world.robot.base.transform()[:3, :3] @ F[20, :3, 0], atol=1e-6)
     data["goals"] = data["goals"][:2]  # now the goal being pursued is the last one
     calls.clear()
     run_trial(world_from_dict(data), planner="scripted")
@@ -353,3 +356,42 @@ def test_contact_is_measured_not_simulated(hold_planner, monkeypatch, frame):
     print(f"\nclearances from {seen[0] * 1e3:.1f} to {max(seen) * 1e3:.1f} mm")
     assert seen[0] < -0.09  # the robot's capsules cross the sphere's centre
     assert max(seen) - min(seen) < 0.002 and r.metrics["contacts"] == len(seen) == r.steps + 1
+
+
+@pytest.mark.parametrize("first, reason", [(-0.01, "collision"), (0.2, "timeout")])
+def test_a_finished_trial_is_rendered_on_request(hold_planner, clearances, tmp_path, first, reason):
+    seq, _ = clearances
+    seq[:] = [first]
+    r = run_trial(_world(time_limit=0.1), planner="scripted", out_dir=tmp_path, render=True)
+    assert r.reason == reason and (tmp_path / "scene.png").stat().st_size > 0
+
+
+def test_reach_bound_is_the_sum_of_the_figure_2_link_offsets():
+    """check_reach refuses a goal farther from the lathe bed's travel than the summed distances between
+    consecutive frame origins 1..21: sqrt(a_{i-1}^2 + d_i^2) of Figure 2's rows 2..21 (the paper's table,
+    transcribed in tests/test_figure2.py), plus the goal's tolerance."""
+    from test_figure2 import A_CM, D_CM
+
+    from navstack.trial import check_reach
+
+    reach = float(np.sum(np.hypot(A_CM[1:], D_CM[1:]))) / 100.0
+    assert reach == pytest.approx(2.77, abs=0.005)  # the README's figure
+    base = {"format": "navstack-world/1", "name": "reach", "robot": {}, "obstacles": [], "time_limit": 1.0}
+    world = world_from_dict({**base, "goals": [{"position": [0.0, 0.0, 0.0]}]})
+    chain = jpl_serpentine()
+    T0 = world.robot.base.transform()
+    q = np.array(world.robot.q0, dtype=np.float64)
+    ends = []
+    for lathe in (chain.lower[0], chain.upper[0]):
+        q[0] = lathe
+        ends.append(T0[:3, :3] @ chain.frames(q)[1, :3, 3] + T0[:3, 3])
+    mid, axis = (ends[0] + ends[1]) / 2, ends[1] - ends[0]
+    side = np.cross(axis, [0.0, 0.0, 1.0] if abs(axis[2]) < 0.9 * np.linalg.norm(axis) else [1.0, 0.0, 0.0])
+    side /= np.linalg.norm(side)
+    for distance, ok in ((reach + 0.02 - 0.005, True), (reach + 0.02 + 0.005, False)):
+        w = world_from_dict({**base, "goals": [{"position": (mid + distance * side).tolist(), "tolerance": 0.02}]})
+        if ok:
+            check_reach(w)
+        else:
+            with pytest.raises(ValueError, match=r"goals\[0\]\.position .* beyond the robot's reach \(2\.77 m\)"):
+                check_reach(w)
