@@ -362,8 +362,10 @@ def test_contact_is_measured_not_simulated(hold_planner, monkeypatch, frame):
 def test_a_finished_trial_is_rendered_on_request(hold_planner, clearances, tmp_path, first, reason):
     seq, _ = clearances
     seq[:] = [first]
-    r = run_trial(_world(time_limit=0.1), planner="scripted", out_dir=tmp_path, render=True)
-    assert r.reason == reason and (tmp_path / "scene.png").stat().st_size > 0
+    r = run_trial(_world(time_limit=0.1), planner="scripted", out_dir=tmp_path / "a", render=True)
+    assert r.reason == reason and (tmp_path / "a" / "scene.png").stat().st_size > 0
+    run_trial(_world(time_limit=0.1), planner="scripted", out_dir=tmp_path / "b")  # not asked: no picture
+    assert (tmp_path / "b" / "result.json").exists() and not (tmp_path / "b" / "scene.png").exists()
 
 
 def test_reach_bound_is_the_sum_of_the_figure_2_link_offsets():
