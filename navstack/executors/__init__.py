@@ -1,0 +1,362 @@
+"""Executors: where a sweep's trials run (``navstack trials --backend local|ray``, interfaces.md section 4).
+
+One small interface, :class:`Executor`: ``submit(job, timeout)`` returns a :class:`concurrent.futures.Future`
+that resolves to the trial's *reply* (never raises for a failed trial), ``capacity()`` says how many trials
+to keep in flight, ``close(cancel=...)`` ends it. Two implementations:
+
+* :class:`navstack.executors.local.LocalExecutor` (``local``, the default): worker processes on this machine,
+  a :class:`WorkerPool` (pebble's ``ProcessPool``);
+* :class:`navstack.executors.ray_backend.RayExecutor` (``ray``): one Ray task per trial; inside each Ray
+  worker the trial runs in a one-process :class:`WorkerPool`, so a trial's timeout and crash handling are
+  exactly the local backend's.
+
+Workers need no shared file system: a :class:`TrialJob` carries the world file's text (or the generator's
+inputs), and the reply carries the generated world's JSON and, if asked, the trial's output files. Only the
+sweep driver writes the sweep folder.
+
+A reply is a dict: ``result`` (the runner's ``result.json`` dict, or ``None``), ``error`` / ``traceback``
+(why there is no result), ``world_json`` (a generated world, or ``None``), ``files`` (relative path ->
+bytes), ``wall_time`` (s) and ``provenance`` (:func:`navstack.provenance.provenance` of the process that ran
+the trial; ``host`` is ``None`` when it is unknown, e.g. a Ray worker that died).
+
+Why pebble (``python tools/bench_executors.py``): its pool kills and replaces the worker of a task that
+exceeds its timeout (counted from the moment a worker takes the task) and reports a worker that dies as
+``ProcessExpired`` on that task alone; ``concurrent.futures`` and loky have no per-task timeout and fail every
+task in flight when one worker dies. pebble has one race (an instantly dying worker can break the whole pool
+with ``BrokenProcessPool``); :class:`WorkerPool` replaces a broken pool and resubmits the trials it held, at
+most :data:`MAX_ATTEMPTS` times each.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import contextlib
+import dataclasses
+import hashlib
+import json
+import math
+import multiprocessing as mp
+import os
+import sys
+import tempfile
+import threading
+import time
+import traceback
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol
+
+from navstack.provenance import provenance
+
+if TYPE_CHECKING:
+    from navstack.sweep import TrialSpec
+
+Runner = Callable[..., Any]
+Generator = Callable[..., Any]
+Reply = dict[str, Any]
+
+BACKENDS = ("local", "ray")
+MAX_ATTEMPTS = 3
+"""How often a trial is submitted again after its worker pool broke under it (not after its own crash)."""
+
+
+class SweepWorkerError(RuntimeError):
+    """Workers cannot start (e.g. the runner cannot be imported there); the sweep stops."""
+
+
+class BackendError(ValueError):
+    """A backend that cannot be used (Ray missing, no cluster at the address); the message says why."""
+
+
+@dataclass(frozen=True)
+class TrialJob:
+    """Everything a worker needs to run one trial, without access to the sweep folder.
+
+    ``world_text`` is the world file's content for a spec read from a file (``None`` for a generated world);
+    ``keep_files`` asks for the trial's output files (``result.json``, ``trajectory.npz``) in the reply.
+    ``runner`` / ``generator`` ``None`` mean :func:`navstack.trial.run_trial` /
+    :func:`navstack.generate.generate_world`.
+    """
+
+    spec: TrialSpec
+    world_text: str | None = None
+    keep_files: bool = False
+    runner: Runner | None = None
+    generator: Generator | None = None
+
+
+class Executor(Protocol):
+    """Runs trials; see the module docstring."""
+
+    backend: str
+
+    def capacity(self) -> int:
+        """How many trials the driver should keep submitted at once."""
+
+    def submit(self, job: TrialJob, timeout: float | None) -> cf.Future[Reply]:
+        """Start ``job`` with a wall-clock limit of ``timeout`` s (``None``: none); the future gives its reply.
+
+        The future raises only :class:`SweepWorkerError` (workers cannot start)."""
+
+    def close(self, *, cancel: bool) -> None:
+        """Stop: ``cancel`` kills running trials (Ctrl-C), else waits for them."""
+
+
+def make_executor(backend: str, *, jobs: int | None, runner: Runner | None = None, log_path: str | None = None,
+                  ray_address: str | None = None) -> Executor:
+    """The executor named ``backend`` (``local`` or ``ray``); ``jobs`` = parallel trials (``None``: all cores,
+    or for Ray all the cluster's CPUs). Raises :class:`BackendError` for an unusable backend."""
+    if backend == "local":
+        from navstack.executors.local import LocalExecutor
+
+        return LocalExecutor(jobs or available_cores(), runner=runner, log_path=log_path)
+    if backend == "ray":
+        from navstack.executors.ray_backend import RayExecutor
+
+        return RayExecutor(jobs, runner=runner, address=ray_address)
+    raise BackendError(f"--backend: unknown backend {backend!r}; expected one of {list(BACKENDS)}")
+
+
+def available_cores() -> int:
+    """CPU cores this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+# --------------------------------------------------------------------------------------------------------
+# Worker side
+# --------------------------------------------------------------------------------------------------------
+
+
+def error_reply(message: str, wall_time: float, tb: str | None = None, *, host_known: bool = True) -> Reply:
+    """A reply without result: the trial crashed, hung, or could not be run; ``message`` says why."""
+    prov = provenance()
+    if not host_known:
+        prov["host"] = None
+    return {"result": None, "error": message, "traceback": tb, "world_json": None, "files": {},
+            "wall_time": wall_time, "provenance": prov}
+
+
+def json_ready(obj: Any) -> Any:
+    """Plain JSON data: numpy scalars/arrays to Python, Paths to str, non-finite floats to None."""
+    if isinstance(obj, dict):
+        return {str(k): json_ready(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [json_ready(v) for v in obj]
+    if isinstance(obj, bool) or obj is None or isinstance(obj, str):
+        return obj
+    if isinstance(obj, int):
+        return int(obj)
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, Path):
+        return str(obj)
+    if hasattr(obj, "tolist"):  # numpy scalar / array
+        return json_ready(obj.tolist())
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return json_ready(dataclasses.asdict(obj))
+    return str(obj)
+
+
+def _result_to_dict(result: Any) -> dict[str, Any]:
+    if isinstance(result, dict):
+        return dict(result)
+    if hasattr(result, "to_dict"):
+        return dict(result.to_dict())
+    if dataclasses.is_dataclass(result) and not isinstance(result, type):
+        return dataclasses.asdict(result)
+    raise TypeError(f"the trial runner returned {type(result).__name__}, expected a dict or a TrialResult")
+
+
+def _world_path(job: TrialJob, tmp: Path, reply: Reply) -> Path:
+    """The world file the runner is given: the generated world, the user's own file when this process sees it
+    unchanged (so relative mesh paths work), else a copy of the shipped text in ``tmp``."""
+    spec = job.spec
+    name = Path(spec.world_file).name
+    if spec.generated:
+        generator = job.generator
+        if generator is None:
+            from navstack.generate import generate_world as generator
+        kwargs = {"retract": True} if spec.retract else {}
+        world = generator(spec.family, seed=spec.world_seed, difficulty=spec.difficulty, **kwargs)
+        path = tmp / name
+        if isinstance(world, dict):
+            path.write_text(json.dumps(world, indent=2) + "\n", encoding="utf-8")
+        else:
+            from navstack.world import save_world
+
+            save_world(world, path)
+        reply["world_json"] = path.read_text(encoding="utf-8")
+        return path
+    original = Path(spec.world_file)
+    text = job.world_text if job.world_text is not None else ""
+    with contextlib.suppress(OSError):
+        if hashlib.sha256(original.read_bytes()).digest() == hashlib.sha256(text.encode("utf-8")).digest():
+            return original
+    (tmp / name).write_text(text, encoding="utf-8")
+    return tmp / name
+
+
+def run_job(job: TrialJob) -> Reply:
+    """Run one trial in this process (the worker side of every executor); never raises for a failed trial."""
+    t0 = time.monotonic()
+    reply: Reply = {"result": None, "error": None, "traceback": None, "world_json": None, "files": {},
+                    "wall_time": 0.0, "provenance": provenance()}
+    spec = job.spec
+    runner = job.runner
+    with tempfile.TemporaryDirectory(prefix="navstack-trial-") as tmp_name:
+        tmp = Path(tmp_name)
+        try:
+            if runner is None:
+                from navstack.trial import run_trial as runner
+            world = _world_path(job, tmp, reply)
+            out = tmp / "out" if job.keep_files else None
+            result = runner(str(world), controller=spec.controller, planner=spec.planner, seed=spec.seed,
+                            out_dir=out)
+            reply["result"] = json_ready(_result_to_dict(result))
+            if out is not None and out.is_dir():
+                reply["files"] = {p.relative_to(out).as_posix(): p.read_bytes()
+                                  for p in sorted(out.rglob("*")) if p.is_file()}
+        except BaseException as exc:  # noqa: BLE001 - every failure of a trial is data, not a crash
+            reply["error"] = f"{type(exc).__name__}: {exc}"
+            reply["traceback"] = traceback.format_exc()
+    reply["wall_time"] = time.monotonic() - t0
+    return reply
+
+
+def _parent_watchdog(parent_pid: int) -> None:
+    """Exit when the process that started this worker is gone (its driver was killed)."""
+    while True:
+        time.sleep(0.5)
+        if os.getppid() != parent_pid:
+            os._exit(3)
+
+
+def _init_worker(log_path: str | None, parent_pid: int, runner: Runner | None, started: Any) -> None:
+    """pebble initializer: output to ``log_path``, exit with the parent, import the runner, then say so."""
+    if log_path is not None:
+        fd = os.open(log_path, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os.dup2(fd, 1)
+        os.dup2(fd, 2)
+        os.close(fd)
+    threading.Thread(target=_parent_watchdog, args=(parent_pid,), daemon=True).start()
+    if runner is None:
+        import navstack.trial  # noqa: F401 - import now, so the first trial's time limit excludes imports
+    started.set()
+
+
+# --------------------------------------------------------------------------------------------------------
+# A crash-tolerant process pool
+# --------------------------------------------------------------------------------------------------------
+
+
+class WorkerPool:
+    """``workers`` spawned processes (pebble ``ProcessPool``) running :func:`run_job` with per-trial timeouts.
+
+    A trial over its limit has its worker killed and replaced (error reply), a worker that dies during a trial
+    gives an error reply for that trial; a pool broken by pebble's race is replaced and its trials resubmitted;
+    workers that never finish starting raise :class:`SweepWorkerError` from the futures.
+    """
+
+    def __init__(self, workers: int, *, runner: Runner | None = None, log_path: str | None = None) -> None:
+        self.workers, self.runner, self.log_path = workers, runner, log_path
+        self._lock = threading.Lock()
+        self._closed = False
+        self._generation = 0
+        self._pool: Any = None
+        self._started: Any = None
+        self._old: list[Any] = []
+        self._new_pool()
+
+    def _new_pool(self) -> None:
+        import pebble
+
+        ctx = mp.get_context("spawn")  # PyBullet only ever inside fresh worker processes
+        self._started = ctx.Event()
+        self._pool = pebble.ProcessPool(max_workers=self.workers, initializer=_init_worker,
+                                        initargs=(self.log_path, os.getpid(), self.runner, self._started),
+                                        context=ctx)
+        self._generation += 1
+
+    def submit(self, job: TrialJob, timeout: float | None) -> cf.Future[Reply]:
+        """Run ``job`` with a limit of ``timeout`` s; the future gives its reply."""
+        out: cf.Future[Reply] = cf.Future()
+        self._schedule(job, timeout, out, 1)
+        return out
+
+    def _schedule(self, job: TrialJob, timeout: float | None, out: cf.Future[Reply], attempt: int) -> None:
+        with self._lock:
+            if self._closed:
+                out.cancel()
+                return
+            state = (self._generation, self._started, time.monotonic())
+            pf = self._pool.schedule(run_job, (job,), timeout=timeout)
+        pf.add_done_callback(lambda f: self._settle(f, job, timeout, out, attempt, state))
+
+    def _settle(self, f: cf.Future[Reply], job: TrialJob, timeout: float | None, out: cf.Future[Reply],
+                attempt: int, state: tuple[int, Any, float]) -> None:
+        from concurrent.futures.process import BrokenProcessPool
+
+        from pebble import ProcessExpired
+
+        generation, started, t0 = state
+        elapsed = time.monotonic() - t0
+        if out.done():  # cancelled by close()
+            return
+        try:
+            out.set_result(f.result())
+        except TimeoutError:
+            out.set_result(error_reply(f"trial exceeded the {timeout:g} s wall-clock limit; worker killed",
+                                       float(timeout or elapsed)))
+        except ProcessExpired as exc:
+            out.set_result(error_reply(f"worker process died (exit code {exc.exitcode}) while running the "
+                                       "trial", elapsed))
+        except BrokenProcessPool as exc:
+            if not started.is_set():
+                out.set_exception(SweepWorkerError(
+                    f"worker processes died while starting ({exc}); see the messages above"
+                    + (f" or {self.log_path}" if self.log_path else "")))
+            elif attempt >= MAX_ATTEMPTS:
+                out.set_result(error_reply(f"the worker pool broke {attempt} times while this trial was in it "
+                                           f"({exc})", elapsed))
+            else:
+                self._renew(generation)
+                self._schedule(job, timeout, out, attempt + 1)
+        except cf.CancelledError:
+            out.cancel()
+        except Exception as exc:  # noqa: BLE001 - e.g. an unpicklable result: data about this trial
+            out.set_result(error_reply(f"{type(exc).__name__}: {exc}", elapsed, traceback.format_exc()))
+
+    def _renew(self, generation: int) -> None:
+        """Replace the pool of ``generation`` (once), stopping the broken one in the background."""
+        with self._lock:
+            if self._closed or generation != self._generation:
+                return
+            old = self._pool
+            self._new_pool()
+        stopper = threading.Thread(target=_stop_pool, args=(old,), daemon=True)
+        stopper.start()
+        self._old.append(stopper)
+
+    def close(self, *, cancel: bool) -> None:
+        """Stop accepting trials; ``cancel``: kill the running ones, else let them finish first."""
+        with self._lock:
+            self._closed = True
+            pool = self._pool
+        if cancel:
+            _stop_pool(pool)
+        else:
+            pool.close()
+            pool.join()
+        for t in self._old:
+            t.join()
+
+
+def _stop_pool(pool: Any) -> None:
+    pool.stop()
+    pool.join()
