@@ -22,9 +22,9 @@ the trial; ``host`` is ``None`` when it is unknown, e.g. a Ray worker that died)
 Why pebble (``python tools/bench_executors.py``): its pool kills and replaces the worker of a task that
 exceeds its timeout (counted from the moment a worker takes the task) and reports a worker that dies as
 ``ProcessExpired`` on that task alone; ``concurrent.futures`` and loky have no per-task timeout and fail every
-task in flight when one worker dies. pebble has one race (an instantly dying worker can break the whole pool
-with ``BrokenProcessPool``); :class:`WorkerPool` replaces a broken pool and resubmits the trials it held, at
-most :data:`MAX_ATTEMPTS` times each.
+task in flight when one worker dies. pebble's shared pool has a race (a worker that dies at once can break the
+whole pool, or be charged to the trial it ran before); :class:`WorkerPool` therefore gives each worker its
+own one-process pool and one trial at a time, and reruns a trial whose pool pebble declares broken.
 """
 
 from __future__ import annotations
@@ -42,6 +42,7 @@ import tempfile
 import threading
 import time
 import traceback
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -255,106 +256,152 @@ def _init_worker(log_path: str | None, parent_pid: int, runner: Runner | None, s
 # --------------------------------------------------------------------------------------------------------
 
 
-class WorkerPool:
-    """``workers`` spawned processes (pebble ``ProcessPool``) running :func:`run_job` with per-trial timeouts.
+@dataclass
+class _Lane:
+    """One worker process: a one-process pebble pool that is given one trial at a time."""
 
-    A trial over its limit has its worker killed and replaced (error reply), a worker that dies during a trial
-    gives an error reply for that trial; a pool broken by pebble's race is replaced and its trials resubmitted;
-    workers that never finish starting raise :class:`SweepWorkerError` from the futures.
+    pool: Any
+    started: Any
+    busy: bool = False
+
+
+@dataclass
+class _Task:
+    job: TrialJob
+    timeout: float | None
+    out: cf.Future[Reply]
+    attempt: int = 1
+
+
+class WorkerPool:
+    """``workers`` spawned processes running :func:`run_job` with per-trial timeouts (pebble underneath).
+
+    Each worker is its own one-process pebble ``ProcessPool`` (a *lane*) and holds at most one trial, so
+    pebble can never blame one trial for another's crash (in a shared pool an instantly dying worker can be
+    charged with the trial it finished just before, measured by ``tools/bench_executors.py``). A trial over its
+    limit has its worker killed and replaced (error reply); a worker that dies during a trial gives an error
+    reply for that trial; a lane that pebble declares broken is replaced and its trial run again (at most
+    :data:`MAX_ATTEMPTS` times); a lane whose worker never finished starting raises :class:`SweepWorkerError`.
     """
 
     def __init__(self, workers: int, *, runner: Runner | None = None, log_path: str | None = None) -> None:
-        self.workers, self.runner, self.log_path = workers, runner, log_path
+        self.runner, self.log_path = runner, log_path
         self._lock = threading.Lock()
         self._closed = False
-        self._generation = 0
-        self._pool: Any = None
-        self._started: Any = None
-        self._old: list[Any] = []
-        self._new_pool()
+        self._queue: deque[_Task] = deque()
+        self._lanes = [self._new_lane() for _ in range(workers)]
+        self._stoppers: list[threading.Thread] = []
 
-    def _new_pool(self) -> None:
+    def _new_lane(self) -> _Lane:
         import pebble
 
         ctx = mp.get_context("spawn")  # PyBullet only ever inside fresh worker processes
-        self._started = ctx.Event()
-        self._pool = pebble.ProcessPool(max_workers=self.workers, initializer=_init_worker,
-                                        initargs=(self.log_path, os.getpid(), self.runner, self._started),
-                                        context=ctx)
-        self._generation += 1
+        started = ctx.Event()
+        pool = pebble.ProcessPool(max_workers=1, initializer=_init_worker,
+                                  initargs=(self.log_path, os.getpid(), self.runner, started), context=ctx)
+        return _Lane(pool=pool, started=started)
 
     def submit(self, job: TrialJob, timeout: float | None) -> cf.Future[Reply]:
         """Run ``job`` with a limit of ``timeout`` s; the future gives its reply."""
-        out: cf.Future[Reply] = cf.Future()
-        self._schedule(job, timeout, out, 1)
-        return out
-
-    def _schedule(self, job: TrialJob, timeout: float | None, out: cf.Future[Reply], attempt: int) -> None:
+        task = _Task(job, timeout, cf.Future())
         with self._lock:
             if self._closed:
-                out.cancel()
-                return
-            state = (self._generation, self._started, time.monotonic())
-            pf = self._pool.schedule(run_job, (job,), timeout=timeout)
-        pf.add_done_callback(lambda f: self._settle(f, job, timeout, out, attempt, state))
+                task.out.cancel()
+                return task.out
+            self._queue.append(task)
+        self._dispatch()
+        return task.out
 
-    def _settle(self, f: cf.Future[Reply], job: TrialJob, timeout: float | None, out: cf.Future[Reply],
-                attempt: int, state: tuple[int, Any, float]) -> None:
+    def _dispatch(self) -> None:
+        """Give queued trials to idle lanes."""
+        started: list[tuple[_Lane, _Task, Any]] = []
+        with self._lock:
+            for lane in self._lanes:
+                if self._closed or not self._queue:
+                    break
+                if not lane.busy:
+                    task = self._queue.popleft()
+                    lane.busy = True
+                    started.append((lane, task, lane.pool.schedule(run_job, (task.job,), timeout=task.timeout)))
+        for lane, task, pf in started:
+            t0 = time.monotonic()
+            pf.add_done_callback(lambda f, lane=lane, task=task, t0=t0: self._settle(f, lane, task, t0))
+
+    def _settle(self, f: cf.Future[Reply], lane: _Lane, task: _Task, t0: float) -> None:
+        """A lane's trial ended: resolve its future (or requeue it), free or replace the lane, dispatch."""
         from concurrent.futures.process import BrokenProcessPool
 
         from pebble import ProcessExpired
 
-        generation, started, t0 = state
         elapsed = time.monotonic() - t0
-        if out.done():  # cancelled by close()
-            return
+        reply: Reply | None = None
         try:
-            out.set_result(f.result())
+            reply = f.result()
         except TimeoutError:
-            out.set_result(error_reply(f"trial exceeded the {timeout:g} s wall-clock limit; worker killed",
-                                       float(timeout or elapsed)))
+            reply = error_reply(f"trial exceeded the {task.timeout:g} s wall-clock limit; worker killed",
+                                float(task.timeout or elapsed))
         except ProcessExpired as exc:
-            out.set_result(error_reply(f"worker process died (exit code {exc.exitcode}) while running the "
-                                       "trial", elapsed))
+            reply = error_reply(f"worker process died (exit code {exc.exitcode}) while running the trial", elapsed)
         except BrokenProcessPool as exc:
-            if not started.is_set():
-                out.set_exception(SweepWorkerError(
+            was_started = lane.started.is_set()
+            self._replace(lane)
+            if not was_started:
+                _resolve(task.out, exc=SweepWorkerError(
                     f"worker processes died while starting ({exc}); see the messages above"
                     + (f" or {self.log_path}" if self.log_path else "")))
-            elif attempt >= MAX_ATTEMPTS:
-                out.set_result(error_reply(f"the worker pool broke {attempt} times while this trial was in it "
-                                           f"({exc})", elapsed))
+            elif task.attempt >= MAX_ATTEMPTS:
+                reply = error_reply(f"the worker pool broke {task.attempt} times under this trial ({exc})", elapsed)
             else:
-                self._renew(generation)
-                self._schedule(job, timeout, out, attempt + 1)
+                task.attempt += 1
+                with self._lock:
+                    self._queue.appendleft(task)
         except cf.CancelledError:
-            out.cancel()
+            task.out.cancel()
         except Exception as exc:  # noqa: BLE001 - e.g. an unpicklable result: data about this trial
-            out.set_result(error_reply(f"{type(exc).__name__}: {exc}", elapsed, traceback.format_exc()))
-
-    def _renew(self, generation: int) -> None:
-        """Replace the pool of ``generation`` (once), stopping the broken one in the background."""
+            reply = error_reply(f"{type(exc).__name__}: {exc}", elapsed, traceback.format_exc())
+        if reply is not None:
+            _resolve(task.out, reply)
         with self._lock:
-            if self._closed or generation != self._generation:
+            lane.busy = False
+        self._dispatch()
+
+    def _replace(self, lane: _Lane) -> None:
+        """Give ``lane`` a new pool; the broken one is stopped in the background (we are on its thread)."""
+        with self._lock:
+            if self._closed:
                 return
-            old = self._pool
-            self._new_pool()
-        stopper = threading.Thread(target=_stop_pool, args=(old,), daemon=True)
+            old = lane.pool
+            fresh = self._new_lane()
+            lane.pool, lane.started = fresh.pool, fresh.started
+            stopper = threading.Thread(target=_stop_pool, args=(old,), daemon=True)
+            self._stoppers.append(stopper)
         stopper.start()
-        self._old.append(stopper)
 
     def close(self, *, cancel: bool) -> None:
         """Stop accepting trials; ``cancel``: kill the running ones, else let them finish first."""
         with self._lock:
             self._closed = True
-            pool = self._pool
-        if cancel:
-            _stop_pool(pool)
-        else:
-            pool.close()
-            pool.join()
-        for t in self._old:
+            pools = [lane.pool for lane in self._lanes]
+            for task in self._queue:
+                task.out.cancel()
+            self._queue.clear()
+        for pool in pools:
+            if cancel:
+                _stop_pool(pool)
+            else:
+                pool.close()
+                pool.join()
+        for t in self._stoppers:
             t.join()
+
+
+def _resolve(out: cf.Future[Reply], reply: Reply | None = None, exc: BaseException | None = None) -> None:
+    """Set ``out`` unless it was cancelled meanwhile (``close``)."""
+    with contextlib.suppress(cf.InvalidStateError):
+        if exc is not None:
+            out.set_exception(exc)
+        else:
+            out.set_result(reply)
 
 
 def _stop_pool(pool: Any) -> None:
