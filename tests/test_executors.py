@@ -145,9 +145,9 @@ def test_pool_runs_trials_and_reports_timeouts_and_deaths(tmp_path):
                    runner=fake_runner)
     pool = WorkerPool(2, runner=fake_runner)
     try:
-        ok, hung, died = pool.submit(job, None), pool.submit(hang, 2.0), pool.submit(die, None)
+        ok, hung, died = pool.submit(job, None), pool.submit(hang, 5.0), pool.submit(die, None)
         assert ok.result()["result"]["world"] == "w00" and ok.result()["error"] is None
-        assert hung.result()["error"] == "trial exceeded the 2 s wall-clock limit; worker killed"
+        assert hung.result()["error"] == "trial exceeded the 5 s wall-clock limit; worker killed"
         assert died.result()["error"].startswith("worker process died (exit code 7)")
         assert pool.submit(job, None).result()["result"] == ok.result()["result"]  # the pool goes on
     finally:

@@ -73,6 +73,11 @@ def fake_runner(world, *, controller, planner, seed, out_dir=None):
         threading.Event().wait()
     out = fake_outcome(data["name"], controller, seed)
     out["planner"] = planner
+    if out_dir is not None:  # what run_trial writes there
+        Path(out_dir).mkdir(parents=True)
+        (Path(out_dir) / "result.json").write_text(json.dumps(out))
+        (Path(out_dir) / "sub").mkdir()
+        (Path(out_dir) / "sub" / "trajectory.npz").write_bytes(bytes(range(256)))
     return out
 
 
@@ -241,11 +246,11 @@ def test_raising_hanging_and_dying_trials_are_errors_and_sweep_completes(tmp_pat
     for name, behaviour in (("x_raise", "raise"), ("x_hang", "hang"), ("x_die", "die")):
         (folder / f"{name}.json").write_text(json.dumps({"name": name, "extra": {"behaviour": behaviour}}))
     specs = build_specs(SweepConfig(worlds_dir=str(folder)))
-    summary = run_sweep(specs, tmp_path / "out", jobs=2, trial_timeout=2.0, runner=fake_runner,
+    summary = run_sweep(specs, tmp_path / "out", jobs=2, trial_timeout=5.0, runner=fake_runner,
                         progress=False)
     recs = {r["trial_id"]: r for r in lines_of(tmp_path / "out" / "results.jsonl")}
     assert summary.complete and len(recs) == 6 and summary.errors == 3
-    for tid, needle in (("x_raise", "RuntimeError: fake failure in x_raise"), ("x_hang", "2 s wall-clock"),
+    for tid, needle in (("x_raise", "RuntimeError: fake failure in x_raise"), ("x_hang", "5 s wall-clock"),
                         ("x_die", "exit code 7")):
         r = recs[f"{tid}__000__slither__field"]
         assert (r["success"], r["reason"]) == (False, "error")
@@ -408,6 +413,18 @@ def test_retract_flag_changes_only_retract_sweeps(tmp_path, families, monkeypatc
         SweepConfig(worlds_dir=str(tmp_path), retract=True)
 
 
+def test_keep_trajectories_files_come_back_to_the_driver(tmp_path):
+    folder = write_worlds(tmp_path / "in", 2)
+    specs = build_specs(SweepConfig(worlds_dir=str(folder)))
+    run_sweep(specs, tmp_path / "out", jobs=2, runner=fake_runner, progress=False, keep_trajectories=True)
+    for r in lines_of(tmp_path / "out" / "results.jsonl"):
+        trial = tmp_path / "out" / "trials" / r["trial_id"]
+        assert json.loads((trial / "result.json").read_text())["world"] == r["world"]
+        assert (trial / "sub" / "trajectory.npz").read_bytes() == bytes(range(256))
+    run_sweep(specs, tmp_path / "plain", jobs=1, runner=fake_runner, progress=False)
+    assert not (tmp_path / "plain" / "trials").exists()
+
+
 # ---------------------------------------------------------------------------------------------- real kills
 
 KILL_SCRIPT = """
@@ -537,6 +554,32 @@ def test_cli_bad_input_and_interrupt_messages(tmp_path, capsys, monkeypatch):
     assert sweep.run_from_args(_parse(argv[1:]), argv) == 130
     err = capsys.readouterr().err
     assert "1 of 2 trials are recorded" in err and f"navstack trials --worlds {tmp_path / 'in'}" in err
+
+
+def test_cli_backend_and_retract_options(tmp_path, capsys, monkeypatch, families):
+    seen = {}
+
+    def fake_sweep(specs, out_dir, **kw):
+        seen.update(kw, ids=[s.trial_id for s in specs])
+        return sweep.SweepSummary(out_dir=Path(out_dir), results_path=Path(out_dir) / "results.jsonl",
+                                  total=len(specs), skipped=0, recorded=len(specs))
+
+    monkeypatch.setattr(sweep, "run_sweep", fake_sweep)
+    monkeypatch.setattr(sweep, "_generator_supports_retract", lambda generator=None: True)
+    argv = ["--generate", "truss", "--backend", "ray", "--ray-address", "10.0.0.1:6379", "--retract",
+            "--out", str(tmp_path / "o")]
+    assert sweep.run_from_args(_parse(argv), argv) == 0
+    assert (seen["backend"], seen["ray_address"]) == ("ray", "10.0.0.1:6379")
+    assert seen["ids"] == ["truss__d0.5__0000__retract__slither__field"] and seen["config"].retract
+    assert sweep.run_from_args(_parse(["--generate", "truss", "--out", "o"]), []) == 0
+    assert (seen["backend"], seen["ray_address"], seen["ids"]) == ("local", None, ["truss__d0.5__0000__slither__field"])
+    for bad, needle in ((["--generate", "truss", "--ray-address", "x:1"], "--ray-address only applies"),
+                        (["--worlds", str(tmp_path), "--retract"], "--retract only applies")):
+        capsys.readouterr()
+        assert sweep.run_from_args(_parse([*bad, "--out", "o"]), []) == 2
+        assert needle in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        _parse(["--generate", "truss", "--backend", "dask", "--out", "o"])
 
 
 def test_sweep_accepts_exactly_the_registered_names():
