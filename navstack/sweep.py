@@ -715,6 +715,7 @@ class _Run:
                         pending[executor.submit(job, self.trial_timeout)] = spec
                 if pending:
                     finished, _ = cf.wait(pending, timeout=1.0, return_when=cf.FIRST_COMPLETED)
+                    executor.check()
                     for fut in sorted(finished, key=lambda f: order[pending[f].trial_id]):
                         self._record(writer, pending.pop(fut), fut.result(), executor.backend)
             cancel = False

@@ -10,6 +10,7 @@ from __future__ import annotations
 import concurrent.futures as cf
 import json
 import subprocess
+import time
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
@@ -134,6 +135,20 @@ def test_broken_lane_is_replaced_and_its_trial_run_again(tmp_path, monkeypatch):
     with pytest.raises(SweepWorkerError, match="died while starting"):
         task.out.result()
     assert not pool._queue
+    pool.close(cancel=True)
+
+
+def test_a_worker_that_never_starts_stops_the_sweep_after_the_startup_limit():
+    from navstack.executors import _Lane
+
+    pool = WorkerPool(1)
+    pool.check(startup_timeout=0.0)  # idle lanes are never late
+    pool._lanes[0] = _Lane(pool=pool._lanes[0].pool, started=_Event(False), busy=True,
+                          born=time.monotonic() - 301.0)
+    with pytest.raises(SweepWorkerError, match="did not start within 300 s"):
+        pool.check(startup_timeout=300.0)
+    pool._lanes[0].started = _Event(True)
+    pool.check(startup_timeout=300.0)
     pool.close(cancel=True)
 
 

@@ -60,6 +60,8 @@ Reply = dict[str, Any]
 BACKENDS = ("local", "ray")
 MAX_ATTEMPTS = 3
 """How often a trial is submitted again after its worker pool broke under it (not after its own crash)."""
+STARTUP_TIMEOUT = 300.0
+"""Seconds a new worker may take to start (import the runner) while a trial waits for it (s)."""
 
 
 class SweepWorkerError(RuntimeError):
@@ -102,6 +104,9 @@ class Executor(Protocol):
 
     def close(self, *, cancel: bool) -> None:
         """Stop: ``cancel`` kills running trials (Ctrl-C), else waits for them."""
+
+    def check(self) -> None:
+        """Raise :class:`SweepWorkerError` if workers do not start (called by the driver while it waits)."""
 
 
 def make_executor(backend: str, *, jobs: int | None, runner: Runner | None = None, log_path: str | None = None,
@@ -263,6 +268,7 @@ class _Lane:
     pool: Any
     started: Any
     busy: bool = False
+    born: float = dataclasses.field(default_factory=time.monotonic)
 
 
 @dataclass
@@ -300,6 +306,17 @@ class WorkerPool:
         pool = pebble.ProcessPool(max_workers=1, initializer=_init_worker,
                                   initargs=(self.log_path, os.getpid(), self.runner, started), context=ctx)
         return _Lane(pool=pool, started=started)
+
+    def check(self, startup_timeout: float = STARTUP_TIMEOUT) -> None:
+        """Raise :class:`SweepWorkerError` when a worker has been given a trial but has not finished starting
+        ``startup_timeout`` s after it was created (a hung import would otherwise hang the sweep)."""
+        now = time.monotonic()
+        with self._lock:
+            late = [lane for lane in self._lanes if lane.busy and not lane.started.is_set()
+                    and now - lane.born > startup_timeout]
+        if late:
+            raise SweepWorkerError(f"a worker process did not start within {startup_timeout:g} s"
+                                   + (f"; see {self.log_path}" if self.log_path else ""))
 
     def submit(self, job: TrialJob, timeout: float | None) -> cf.Future[Reply]:
         """Run ``job`` with a limit of ``timeout`` s; the future gives its reply."""
@@ -372,7 +389,7 @@ class WorkerPool:
                 return
             old = lane.pool
             fresh = self._new_lane()
-            lane.pool, lane.started = fresh.pool, fresh.started
+            lane.pool, lane.started, lane.born = fresh.pool, fresh.started, fresh.born
             stopper = threading.Thread(target=_stop_pool, args=(old,), daemon=True)
             self._stoppers.append(stopper)
         stopper.start()

@@ -24,6 +24,10 @@ class LocalExecutor:
         """See :class:`navstack.executors.Executor`."""
         return self._pool.submit(job, timeout)
 
+    def check(self) -> None:
+        """See :class:`navstack.executors.Executor`."""
+        self._pool.check()
+
     def close(self, *, cancel: bool) -> None:
         """See :class:`navstack.executors.Executor`."""
         self._pool.close(cancel=cancel)

@@ -47,7 +47,12 @@ def _ray_trial(job: TrialJob, timeout: float | None) -> Reply:
     if _POOL is None:
         _POOL = WorkerPool(1, runner=job.runner)
     try:
-        return _POOL.submit(job, timeout).result()
+        fut = _POOL.submit(job, timeout)
+        while True:
+            try:
+                return fut.result(timeout=1.0)
+            except cf.TimeoutError:
+                _POOL.check()
     except SweepWorkerError as exc:
         _POOL.close(cancel=True)
         _POOL = None
@@ -130,6 +135,9 @@ class RayExecutor:
 
         ref.future().add_done_callback(settle)
         return out
+
+    def check(self) -> None:
+        """Nothing to check: a Ray worker that cannot start its trial process answers with ``fatal``."""
 
     def close(self, *, cancel: bool) -> None:
         """See :class:`navstack.executors.Executor`; shuts down the Ray instance if this executor started it."""
