@@ -241,8 +241,16 @@ def _parent_watchdog(parent_pid: int) -> None:
             os._exit(3)
 
 
+THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+"""Set to 1 in local workers (unless already set), as Ray does for a 1-CPU task: one trial per core, and a
+multithreaded BLAS in every worker only fights the others for the cores."""
+
+
 def _init_worker(log_path: str | None, parent_pid: int, runner: Runner | None, started: Any) -> None:
-    """pebble initializer: output to ``log_path``, exit with the parent, import the runner, then say so."""
+    """pebble initializer: one BLAS thread, output to ``log_path``, exit with the parent, import the runner,
+    then say so."""
+    for var in THREAD_VARIABLES:  # before numpy is imported in this process (the default runner's imports)
+        os.environ.setdefault(var, "1")
     if log_path is not None:
         fd = os.open(log_path, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
         sys.stdout.flush()
@@ -268,7 +276,8 @@ class _Lane:
     pool: Any
     started: Any
     busy: bool = False
-    born: float = dataclasses.field(default_factory=time.monotonic)
+    born: float | None = None
+    """When its worker was asked to start (its first trial; pebble starts the process then)."""
 
 
 @dataclass
@@ -313,7 +322,7 @@ class WorkerPool:
         now = time.monotonic()
         with self._lock:
             late = [lane for lane in self._lanes if lane.busy and not lane.started.is_set()
-                    and now - lane.born > startup_timeout]
+                    and lane.born is not None and now - lane.born > startup_timeout]
         if late:
             raise SweepWorkerError(f"a worker process did not start within {startup_timeout:g} s"
                                    + (f"; see {self.log_path}" if self.log_path else ""))
@@ -339,6 +348,8 @@ class WorkerPool:
                 if not lane.busy:
                     task = self._queue.popleft()
                     lane.busy = True
+                    if lane.born is None:
+                        lane.born = time.monotonic()
                     started.append((lane, task, lane.pool.schedule(run_job, (task.job,), timeout=task.timeout)))
         for lane, task, pf in started:
             t0 = time.monotonic()
@@ -389,7 +400,7 @@ class WorkerPool:
                 return
             old = lane.pool
             fresh = self._new_lane()
-            lane.pool, lane.started, lane.born = fresh.pool, fresh.started, fresh.born
+            lane.pool, lane.started, lane.born = fresh.pool, fresh.started, None
             stopper = threading.Thread(target=_stop_pool, args=(old,), daemon=True)
             self._stoppers.append(stopper)
         stopper.start()
