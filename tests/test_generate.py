@@ -47,7 +47,7 @@ from navstack.world import (
 )
 
 WORLDS = Path(__file__).resolve().parents[1] / "worlds"
-ISSUE_FILES = ("truss_displaced.json", "truss_clutter.json", "u_trap.json", "pipe_rack.json")
+ISSUE_FILES = ("truss_displaced.json", "truss_clutter.json", "u_trap.json", "pipe_rack.json", "blind_pocket.json")
 TIP, HEADING = robot_tip_start((0.0, 0.0, 0.3), PAPER_BASE_RPY)
 
 

@@ -51,7 +51,7 @@ class _Hold:
         self.stall_at, self.raise_at, self.exc = stall_at, raise_at, exc
         self.calls = 0
 
-    def step(self, dt, tip, heading, reading, goal, tolerance, approach=False, next_goal=None):
+    def step(self, dt, tip, heading, reading, goal_index):
         self.calls += 1
         if self.raise_at is not None and self.calls >= self.raise_at:
             raise self.exc
@@ -254,16 +254,20 @@ def test_a_non_finite_command_is_an_error(hold_planner, monkeypatch):
     assert r.reason == "error" and "planner produced a non-finite tip command at step 0" in r.error
 
 
-def test_the_planner_gets_the_current_and_next_goal_and_approach_on_the_last(monkeypatch):
+def test_the_planner_gets_the_goals_and_the_index_of_the_next_one(monkeypatch):
     calls = []
+    contexts = []
 
     class Recorder(_Hold):
-        def step(self, dt, tip, heading, reading, goal, tolerance, approach=False, next_goal=None):
-            calls.append((np.array(goal), None if next_goal is None else np.array(next_goal), approach, tolerance,
-                          np.array(heading)))
+        def step(self, dt, tip, heading, reading, goal_index):
+            calls.append((goal_index, np.array(heading)))
             return TipCommand(self.start.copy(), np.zeros(3), len(calls) >= 2)
 
-    monkeypatch.setattr(navstack.trial, "make_scripted_planner", lambda ctx: Recorder(ctx.start))
+    def make(ctx):
+        contexts.append(ctx)
+        return Recorder(ctx.start)
+
+    monkeypatch.setattr(navstack.trial, "make_scripted_planner", make)
     world = _world(time_limit=1.0)
     tip = _tip_start(world)
     data = {"format": "navstack-world/1", "name": "goals", "robot": {}, "obstacles": [], "time_limit": 1.0,
@@ -272,16 +276,13 @@ def test_the_planner_gets_the_current_and_next_goal_and_approach_on_the_last(mon
                       {"position": (tip + [0.3, 0.2, 0]).tolist(), "tolerance": 0.04}]}
     r = run_trial(world_from_dict(data), planner="scripted")
     assert r.reason == "stalled" and r.goals_reached == 1
-    goal, nxt, approach, tol, _ = calls[0]
-    np.testing.assert_allclose(goal, tip + [0.3, 0, 0])
-    np.testing.assert_allclose(nxt, tip + [0.3, 0.2, 0])
-    assert approach is False and tol == 0.03
+    assert calls[0][0] == 1  # the first goal was reached at t = 0: the planner is told the next one is goals[1]
+    ctx = contexts[0]
+    np.testing.assert_allclose(ctx.goals, [g["position"] for g in data["goals"]])
+    np.testing.assert_allclose(ctx.tolerances, [0.02, 0.03, 0.04])
     F = jpl_serpentine().frames(world.robot.q0)
-    np.testing.assert_allclose(calls[0][4], world.robot.base.transform()[:3, :3] @ F[20, :3, 0], atol=1e-6)
-    data["goals"] = data["goals"][:2]  # now the goal being pursued is the last one
-    calls.clear()
-    run_trial(world_from_dict(data), planner="scripted")
-    assert calls[0][1] is None and calls[0][2] is True
+    np.testing.assert_allclose(calls[0][1], world.robot.base.transform()[:3, :3] @ F[20, :3, 0], atol=1e-6)
+    np.testing.assert_allclose(ctx.heading, calls[0][1], atol=1e-6)
 
 
 # ------------------------------------------------------------------------------------------ joint limits
@@ -321,7 +322,7 @@ def test_joint_limit_needs_a_pinned_joint_and_a_lagging_tip_for_2_s(monkeypatch,
     seq[:] = [0.3]
 
     class Planner(_Hold):
-        def step(self, dt, tip, heading, reading, goal, tolerance, approach=False, next_goal=None):
+        def step(self, dt, tip, heading, reading, goal_index):
             x_d = self.start + [0.0, 0.0, 0.2] if command == "far" else np.array(tip)  # 0.2 m off, or on the tip
             return TipCommand(x_d, np.zeros(3), False)
 
