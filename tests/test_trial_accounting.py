@@ -336,7 +336,11 @@ def test_joint_limit_needs_a_pinned_joint_and_a_lagging_tip_for_2_s(monkeypatch,
 
 @pytest.mark.parametrize("frame", [15, 2], ids=["serpentine J3", "arm shoulder"])
 def test_contact_is_measured_not_simulated(hold_planner, monkeypatch, frame):
-    """A sphere through the robot at t = 0: the robot is not pushed out, the depth stays as it was."""
+    """A sphere through the robot at t = 0: the robot is not pushed out, the depth stays as it was.
+
+    (A world like this is refused as input, ``check_start``; the check is switched off here to see what the
+    simulation itself does with a contact.)"""
+    monkeypatch.setattr(navstack.trial, "check_start", lambda world: None)
     seen = []
     original = Scene.clearance
 
@@ -396,5 +400,5 @@ def test_reach_bound_is_the_sum_of_the_figure_2_link_offsets():
         if ok:
             check_reach(w)
         else:
-            with pytest.raises(ValueError, match=r"goals\[0\]\.position .* beyond the robot's reach \(2\.77 m\)"):
+            with pytest.raises(ValueError, match=r"goals\[0\]\.position: .* beyond the robot's reach \(2\.77 m\)"):
                 check_reach(w)
