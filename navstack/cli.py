@@ -157,7 +157,7 @@ def _generate(args: argparse.Namespace) -> int:
     from navstack.generate import generate_world
     from navstack.world import save_world
 
-    world = generate_world(args.family, seed=args.seed, difficulty=args.difficulty)
+    world = generate_world(args.family, seed=args.seed, difficulty=args.difficulty, retract=args.retract)
     save_world(world, args.out)
     print(f"wrote {args.out} ({world.name}: {len(world.obstacles)} obstacles, {len(world.goals)} goals)")
     return EXIT_OK
@@ -316,6 +316,9 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("family", metavar="FAMILY", help="one of the families listed below")
     g.add_argument("--seed", type=int, required=True, help="the world's seed (same seed, same world)")
     g.add_argument("--difficulty", type=float, default=0.5, help="0 (easy) .. 1 (hard), default 0.5")
+    g.add_argument("--retract", action=argparse.BooleanOptionalAction, default=None,
+                   help='write "retract": true (back out to the start after the last goal); default: the '
+                        "family's (true for dead-end only)")
     g.add_argument("--out", required=True, help="world file to write")
     g.set_defaults(func=_generate)
 

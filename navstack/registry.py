@@ -169,14 +169,34 @@ register_planner(
     "navstack.trial:make_scripted_planner", senses=False)
 
 register_family("truss", "the paper's box-bay truss, displaced from its drawing; goals at every opening",
-                "navstack.generate:family_truss", seed_id=0,
+                "navstack.generate.truss_families:family_truss", seed_id=0,
                 difficulty="displacement up to 6 cm / 3 deg, bay 0.5 -> 0.42 m, members 2 -> 2.5 cm")
 register_family("cluttered-truss", "truss plus unmodelled cables and equipment boxes near the path",
-                "navstack.generate:family_cluttered_truss", seed_id=1,
+                "navstack.generate.truss_families:family_cluttered_truss", seed_id=1,
                 difficulty="as truss, plus more and closer clutter")
 register_family("pipe-rack", "2-3 layers of horizontal pipes, a goal at each crossing",
-                "navstack.generate:family_pipe_rack", seed_id=2,
+                "navstack.generate.pipe_rack:family_pipe_rack", seed_id=2,
                 difficulty="gap 0.25 -> 0.13 m")
 register_family("sphere-field", "spheres beside a bumped path, via goals on the bump",
-                "navstack.generate:family_sphere_field", seed_id=3,
+                "navstack.generate.sphere_field:family_sphere_field", seed_id=3,
                 difficulty="more spheres, closer to the path")
+register_family("slot-rack", "2-3 rows of pipes or slotted plates, any roll; slots alternate off the line; "
+                "goals: entry and destination only",
+                "navstack.generate.slot_rack:family_slot_rack", seed_id=4,
+                difficulty="3rd row 0.15 -> 0.75 likely, rows 0.5-0.65 -> 0.33-0.45 m apart, slot 0.15 -> 0.12 m, "
+                           "2nd sphere 0.2 -> 0.8 likely, spheres closer")
+register_family("sparse-truss", "the box-bay truss, displaced, with clutter 1.7-5 cm from the way; goals: an "
+                "inspection point inside and the exit only",
+                "navstack.generate.sparse_truss:family_sparse_truss", seed_id=5,
+                difficulty="as truss (bay 0.5 -> 0.42 m, members 2 -> 2.5 cm, displacement up to 6 cm / 3 deg), "
+                           "3 -> 6 clutter items, 1.7-5.2 -> 1.7-3.2 cm from the tip's path")
+register_family("bend-clutter", "a 60-110 deg bend round a column, clutter on its inside and outside; goals: "
+                "the start of the bend region and the destination only",
+                "navstack.generate.bend_clutter:family_bend_clutter", seed_id=6,
+                difficulty="radius 0.36-0.45 -> 0.3-0.36 m, bend 60-85 -> 80-110 deg, column/plate 7 -> 5.5 cm "
+                           "from the path, 2 -> 5 clutter items 1.7-5.7 -> 1.7-2.7 cm from the tip's path")
+register_family("dead-end", "a box tube or cage open towards the robot, the goal at its back; retract: true "
+                "(back out along the path)",
+                "navstack.generate.dead_end:family_dead_end", seed_id=7,
+                difficulty="half width 0.11 -> 0.08 m, depth 0.3 -> 0.5 m, axis tilt (and so mouth offset) up to "
+                           "10 -> 30 deg, 0 -> 2 clutter items beside the approach")

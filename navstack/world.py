@@ -19,8 +19,8 @@ Keys (anything else is an error, except inside ``extra``), whether required, def
   optional (0.02 m).
 * ``time_limit``: optional; 60.0 s.
 * ``family``: optional; ``null`` or a non-empty string (reports group by it).
-* ``retract``: optional; ``false``; ``true`` or ``false``: after the last goal the robot backs out along
-  its own path to where its tip started (interfaces.md section 2a).
+* ``retract``: optional; ``false``; a boolean: after the last goal the robot backs out along its own path
+  (interfaces.md section 2a).  Written only when true.
 * ``extra``: optional; ``{}``; any JSON object, checked only for being finite JSON.
 
 Obstacles (``type`` is required and selects the kind):
@@ -823,10 +823,10 @@ class World(_ValueEq):
     time_limit: float = DEFAULT_TIME_LIMIT
     description: str = ""
     family: str | None = None
-    extra: dict[str, Any] = field(default_factory=dict)
-    source: Path | None = None
     retract: bool = False
     """After the last goal, back out along the path until the tip is within 0.02 m of its start."""
+    extra: dict[str, Any] = field(default_factory=dict)
+    source: Path | None = None
 
     _ignore: ClassVar[tuple[str, ...]] = ("source",)
 
@@ -854,11 +854,12 @@ class World(_ValueEq):
         _string(c, "World.description", self.description)
         if self.family is not None:
             _string(c, "World.family", self.family, nonempty=True)
+        if not isinstance(self.retract, (bool, np.bool_)):
+            raise c.error("World.retract", f"expected true or false, got {_describe(self.retract)}")
+        _set(self, "retract", bool(self.retract))
         if not isinstance(self.extra, dict):
             raise c.error("World.extra", f"expected a dict, got {_describe(self.extra)}")
         _set(self, "extra", _json_value(c, "World.extra", self.extra))
-        if not isinstance(self.retract, bool):
-            raise c.error("World.retract", f"expected true or false, got {_describe(self.retract)}")
         if self.source is not None:
             _set(self, "source", Path(self.source).resolve())
 
@@ -874,12 +875,12 @@ class World(_ValueEq):
         }
         if self.family is not None:
             d["family"] = self.family
+        if self.retract:
+            d["retract"] = True
         d["robot"] = self.robot.to_dict()
         d["obstacles"] = [o.to_dict(rel) for o in self.obstacles]
         d["goals"] = [g.to_dict() for g in self.goals]
         d["time_limit"] = self.time_limit
-        if self.retract:
-            d["retract"] = True
         if self.extra:
             d["extra"] = copy.deepcopy(self.extra)
         return d
@@ -1053,6 +1054,9 @@ def world_from_dict(data: Any, source: str | os.PathLike[str] | None = None, *,
     family = None
     if d.get("family") is not None:
         family = _string(ctx, "family", d["family"], nonempty=True)
+    retract = d.get("retract", False)
+    if not isinstance(retract, bool):
+        raise ctx.error("retract", f"expected true or false, got {_describe(retract)}")
     robot = _parse_robot(ctx, "robot", d["robot"])
     obstacles = tuple(_parse_obstacle(ctx, f"obstacles[{i}]", o)
                       for i, o in enumerate(_array(ctx, "obstacles", d["obstacles"], MAX_OBSTACLES, "obstacles")))
@@ -1061,9 +1065,6 @@ def world_from_dict(data: Any, source: str | os.PathLike[str] | None = None, *,
         raise ctx.error("goals", "expected at least one goal, got an empty array")
     goals = tuple(_parse_goal(ctx, f"goals[{i}]", g) for i, g in enumerate(goals_raw))
     time_limit = _time_limit(ctx, "time_limit", d["time_limit"]) if "time_limit" in d else DEFAULT_TIME_LIMIT
-    retract = d.get("retract", False)
-    if not isinstance(retract, bool):
-        raise ctx.error("retract", f"expected true or false, got {_describe(retract)}")
     extra: dict[str, Any] = {}
     if "extra" in d:
         if not isinstance(d["extra"], dict):

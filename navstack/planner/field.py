@@ -153,7 +153,7 @@ class FieldPlanner:
     def _tail(self, length: float, spacing: float = 0.01) -> NDArray[np.float64]:
         """The last ``length`` [m] of the commanded path every ``spacing`` [m], oldest first, ending at its end."""
         end = self.path.end_arc_length
-        s = np.append(np.arange(max(end - length, 0.0), end, spacing), end)
+        s = np.append(np.arange(max(end - length, 0.0), end - 0.5 * spacing, spacing), end)
         return np.array([self.path.point_at(x)[0] for x in s])
 
     def _passed(self, p: NDArray[np.float64], k: int) -> int:
