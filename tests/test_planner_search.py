@@ -181,10 +181,10 @@ def test_turn_then_straight_matches_a_brute_force_over_turn_angles(seed):
         if math.hypot(a, lat - R) < R + 0.01:  # inside (or on) the turning circle: see the next test
             continue
         n += 1
+        # (the length is stationary in the turn angle at the root: the refined brute force is exact to ~1e-12)
         ref = _brute_tts(a, lat, R)
         assert _tts(np.zeros(3), X, [a, lat, 0.0]) == pytest.approx(ref, abs=1e-7), (a, lat)
         # ... and in any orientation in 3D, from any start
-        # (the length is stationary in the turn angle at the root: the refined brute force is exact to ~1e-12)
         rot = Rotation.random(random_state=rng.integers(1 << 30))
         p0 = rng.uniform(-1, 1, 3)
         got = _tts(p0, rot.apply(X), p0 + rot.apply([a, lat, 0.0]))
