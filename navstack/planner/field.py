@@ -145,7 +145,7 @@ class FieldPlanner:
         cfg = self.config
         k = self._passed(p, k)
         plan = search(self.map, p, h, self.goals, self.tolerances, k, cfg.search, cfg.repulsion,
-                      history=self._tail(1.5 * cfg.search.link_length), nav=self._navigation(p, k, fresh))
+                      history=self._tail(7.5 * cfg.search.link_length), nav=self._navigation(p, k, fresh))
         if plan.status != REACHED and not fresh:
             return self._plan_from(p, h, k, fresh=True)
         return plan

@@ -18,8 +18,11 @@ has not seen), but unseen space *next to a sensed surface* is probably more of t
 the rays sample a wall a few centimetres apart, and the gaps between the samples are not
 openings until a ray has gone through them (see :mod:`navstack.planner.potential`).
 
-A ray that passes cleanly through a stored point (well before its own end, within
-``clear_radius`` of its line) removes it: surfaces that moved are forgotten.
+With ``forget_moved`` (off by default), a ray that passes cleanly through a stored point (well before
+its own end, within ``clear_radius`` of its line) removes it, so surfaces that moved are forgotten.
+It is off because rays that graze a surface erase its noisy samples (measured on a slot rack: the
+tip kept re-entering a gap whose sides had been erased, 60 s timeout; without erasing, reached in
+22.6 s): a static world is better served by a map that only grows.
 
 Cost: one update per control step, O(rays x range / free_cell) cell writes; queries O(27 x
 points per bucket).  Every kernel is ``numba.njit``.
@@ -48,7 +51,10 @@ class MapConfig:
         margin: the map covers the box around the start and the goals grown by this.
         average: samples in a voxel's running mean.
         hit_backoff: a ray that hits marks free space only up to this before its hit.
-        clear_radius: a ray passing this close to a stored point, before its own end, removes it.
+        forget_moved: rays remove the stored points they pass through (moving obstacles).
+        shadow_depths: depths behind each hit [m] where shadow points are put (empty: none).
+        clear_radius: with ``forget_moved``, a ray passing this close to a stored point, before its own
+            end, removes it.
         clear_backoff: ... but only a point this far or more before the ray's end.
     """
 
@@ -60,6 +66,8 @@ class MapConfig:
     hit_backoff: float = 0.03
     clear_radius: float = 0.004
     clear_backoff: float = 0.05
+    forget_moved: bool = False
+    shadow_depths: tuple[float, ...] = (0.015, 0.03, 0.045)
 
     def __post_init__(self) -> None:
         for name in ("voxel", "bucket", "free_cell", "margin", "hit_backoff", "clear_radius", "clear_backoff"):
@@ -69,6 +77,12 @@ class MapConfig:
         ratio = self.bucket / self.voxel
         if abs(ratio - round(ratio)) > 1e-9:
             raise ValueError(f"MapConfig.bucket ({self.bucket}) must be a whole multiple of voxel ({self.voxel})")
+        depths = self.shadow_depths
+        if not isinstance(depths, tuple) or not all(
+                isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) and x > 0 for x in depths):
+            raise ValueError(f"MapConfig.shadow_depths must be a tuple of positive lengths [m], got {depths!r}")
+        if not isinstance(self.forget_moved, bool):
+            raise ValueError(f"MapConfig.forget_moved must be a bool, got {self.forget_moved!r}")
         if isinstance(self.average, bool) or not isinstance(self.average, int) or self.average < 1:
             raise ValueError(f"MapConfig.average must be an integer >= 1, got {self.average!r}")
 
@@ -133,7 +147,7 @@ def _carve(origins, dirs, starts, ends, free, forigin, fcell, fdims, P, alive, h
             s += step
         # points on the clear part of the ray (before end - clear_back) are not there any more
         e_clear = e - clear_back
-        if e_clear <= starts[r]:
+        if clear_r <= 0.0 or e_clear <= starts[r]:
             continue
         s = starts[r]
         while s < e_clear:
@@ -159,6 +173,21 @@ def _carve(origins, dirs, starts, ends, free, forigin, fcell, fdims, P, alive, h
                             removed += 1
                 q = nxt[q]
             s += 0.5 * bucket
+    return removed
+
+
+@numba.njit(cache=True)
+def _purge_shadows(alive, shadow, n, P, free, forigin, fcell, fdims):  # pragma: no cover - jitted
+    """Drop the shadow points whose cell has been seen free; returns how many."""
+    removed = 0
+    for q in range(n):
+        if alive[q] and shadow[q]:
+            i = int(math.floor((P[q, 0] - forigin[0]) / fcell))
+            j = int(math.floor((P[q, 1] - forigin[1]) / fcell))
+            k = int(math.floor((P[q, 2] - forigin[2]) / fcell))
+            if 0 <= i < fdims[0] and 0 <= j < fdims[1] and 0 <= k < fdims[2] and free[i, j, k] != 0:
+                alive[q] = False
+                removed += 1
     return removed
 
 
@@ -205,8 +234,10 @@ class SensedMap:
         self._count = np.zeros(1024, dtype=np.int64)
         self._alive = np.zeros(1024, dtype=np.bool_)
         self._next = np.full(1024, -1, dtype=np.int64)
+        self._shadow = np.zeros(1024, dtype=np.bool_)
         self._n = 0
         self._voxels: dict[tuple[int, int, int], int] = {}
+        self._shadow_voxels: dict[tuple[int, int, int], int] = {}
         self.version = 0
         """Incremented whenever a point is added, moved by more than a millimetre, or removed."""
         self.new_points = np.empty((0, 3))
@@ -225,8 +256,14 @@ class SensedMap:
 
     @property
     def points(self) -> NDArray[np.float64]:
-        """The live surface points (N, 3) [m] (a copy)."""
+        """The live surface points (N, 3) [m] (a copy), shadows included."""
         return self._P[: self._n][self._alive[: self._n]].copy()
+
+    @property
+    def surface_points(self) -> NDArray[np.float64]:
+        """The live points that were sensed (M, 3) [m] (a copy): no shadows."""
+        keep = self._alive[: self._n] & ~self._shadow[: self._n]
+        return self._P[: self._n][keep].copy()
 
     def arrays(self) -> tuple:
         """The arrays the numba kernels take: ``(P, alive, head, next, origin, bucket, bucket_dims)``."""
@@ -238,7 +275,7 @@ class SensedMap:
 
     def _grow(self) -> None:
         cap = 2 * self._P.shape[0]
-        for name, fill in (("_P", 0.0), ("_count", 0), ("_alive", False), ("_next", -1)):
+        for name, fill in (("_P", 0.0), ("_count", 0), ("_alive", False), ("_next", -1), ("_shadow", False)):
             old = getattr(self, name)
             new = np.full((cap,) + old.shape[1:], fill, dtype=old.dtype)
             new[: self._n] = old[: self._n]
@@ -249,15 +286,19 @@ class SensedMap:
         b = np.clip(b, 0, self.bucket_dims - 1)
         return int(b[0]), int(b[1]), int(b[2])
 
-    def add_points(self, pts: ArrayLike) -> None:
-        """Merge surface points (K, 3) [m] into their voxels."""
+    def add_points(self, pts: ArrayLike, shadow: bool = False) -> None:
+        """Merge surface points (K, 3) [m] into their voxels (``shadow``: shadow points, kept apart, never
+        put in a cell already seen free)."""
         pts = np.asarray(pts, dtype=np.float64).reshape(-1, 3)
         cfg = self.config
         keys = np.floor((pts - self.origin) / cfg.voxel).astype(np.int64)
+        voxels = self._shadow_voxels if shadow else self._voxels
         changed = []
         for key_arr, p in zip(keys, pts, strict=True):
             key = (int(key_arr[0]), int(key_arr[1]), int(key_arr[2]))
-            idx = self._voxels.get(key)
+            idx = voxels.get(key)
+            if shadow and (idx is not None or self.is_seen_free(p)):
+                continue  # a shadow is placed once, and never where a ray has been
             if idx is not None and self._alive[idx]:
                 c = min(int(self._count[idx]) + 1, cfg.average)
                 self._count[idx] = c
@@ -271,10 +312,11 @@ class SensedMap:
                     self._grow()
                 idx = self._n
                 self._n += 1
-                self._voxels[key] = idx
+                voxels[key] = idx
                 b = self._bucket(p)
                 self._next[idx] = self.head[b]
                 self.head[b] = idx
+                self._shadow[idx] = shadow
             self._P[idx] = p
             self._count[idx] = 1
             self._alive[idx] = True
@@ -302,12 +344,17 @@ class SensedMap:
         cfg = self.config
         removed = _carve(o[use], d[use], st[use], ends[use], self.free, self.origin, cfg.free_cell,
                          self.free_dims, self._P, self._alive, self.head, self._next, self.origin, cfg.bucket,
-                         self.bucket_dims, cfg.clear_radius, cfg.clear_backoff)
+                         self.bucket_dims, cfg.clear_radius if cfg.forget_moved else 0.0, cfg.clear_backoff)
         if removed:
             self.version += 1
         m = use & h
         if np.any(m):
             self.add_points(o[m] + rg[m, None] * d[m])
+            for depth in cfg.shadow_depths:
+                self.add_points(o[m] + (rg[m, None] + depth) * d[m], shadow=True)
+        if _purge_shadows(self._alive, self._shadow, self._n, self._P, self.free, self.origin, cfg.free_cell,
+                          self.free_dims):
+            self.version += 1
 
     def mark_free(self, centre: ArrayLike, radius: float) -> None:
         """The robot has been here: the cells within ``radius`` [m] of ``centre`` are seen free."""

@@ -69,6 +69,13 @@ class SearchConfig:
             ``body_radius + start_margin`` to a surface (it may already be there) [m].
         start_margin: see ``start_relax`` [m].
         link_length: the serpentine's links are straight chords of this length behind the tip [m].
+        arm_clearance: the flange (six links behind the tip) and the point one link behind it, where the
+            arm begins, keep this distance from sensed surfaces: the arm (radius 0.06 m) must not be
+            drawn into the structure by a path longer than the serpentine [m].
+        length_factor, length_slack: a state whose cost so far plus the heuristic exceeds
+            ``length_factor`` times the start's heuristic plus ``length_slack`` [m] is not expanded: a
+            detour that long would draw the arm into the structure, and without the bound a search
+            from a state with no way on expands every loop it can reach.
         nav_margin: the navigation function covers the box around the start and the goal grown by
             this [m].
         half_curvature: also primitives at half the largest curvature.
@@ -88,6 +95,9 @@ class SearchConfig:
     start_relax: float = 0.06
     start_margin: float = 0.003
     link_length: float = 0.2
+    arm_clearance: float = 0.08
+    length_factor: float = 1.5
+    length_slack: float = 0.3
     nav_margin: float = 0.35
     half_curvature: bool = True
 
@@ -239,14 +249,17 @@ def _key(px, py, pz, hx, hy, hz, k, origin, cell, hbin, dims, n_goals1):  # prag
 
 
 @numba.njit(cache=True)
-def _chord_point(qx, qy, qz, node, NP, NPAR, hist, L):  # pragma: no cover - jitted
-    """The point of the path one chord ``L`` behind (qx, qy, qz): back through the node's ancestors'
-    end points, then the history ``hist`` (oldest first, ending at the root), then straight on."""
-    L2 = L * L
-    ax, ay, az = qx, qy, qz
+def _backward(qx, qy, qz, node, NP, NPAR, hist, reach, out):  # pragma: no cover - jitted
+    """The path behind q as a polyline ``out[:n]`` (q first), back through the node's ancestors' end
+    points, then the history ``hist`` (oldest first, ending at the root), then straight on, until it
+    is ``reach`` [m] long; returns n."""
+    out[0, 0], out[0, 1], out[0, 2] = qx, qy, qz
+    n = 1
+    length = 0.0
     cur = node
     h = hist.shape[0] - 2
-    while True:
+    cap = out.shape[0]
+    while length < reach and n < cap - 1:
         if cur >= 0:
             bx, by, bz = NP[cur, 0], NP[cur, 1], NP[cur, 2]
             cur = NPAR[cur]
@@ -254,39 +267,76 @@ def _chord_point(qx, qy, qz, node, NP, NPAR, hist, L):  # pragma: no cover - jit
             bx, by, bz = hist[h, 0], hist[h, 1], hist[h, 2]
             h -= 1
         else:
-            # beyond the history: extend its first segment straight back
-            if hist.shape[0] >= 2:
-                ex, ey, ez = hist[0, 0] - hist[1, 0], hist[0, 1] - hist[1, 1], hist[0, 2] - hist[1, 2]
-            else:
-                ex, ey, ez = ax - qx, ay - qy, az - qz
-            en = math.sqrt(ex * ex + ey * ey + ez * ez)
-            if en < 1e-12:
-                return ax, ay, az
-            bx, by, bz = ax + 10.0 * L * ex / en, ay + 10.0 * L * ey / en, az + 10.0 * L * ez / en
-        dx, dy, dz = bx - qx, by - qy, bz - qz
-        if dx * dx + dy * dy + dz * dz >= L2:
-            # the crossing of |p - q| = L on the segment a -> b
-            sx, sy, sz = bx - ax, by - ay, bz - az
-            wx, wy, wz = ax - qx, ay - qy, az - qz
-            A = sx * sx + sy * sy + sz * sz
-            B = wx * sx + wy * sy + wz * sz
-            C = wx * wx + wy * wy + wz * wz - L2
-            disc = B * B - A * C
-            t = (-B + math.sqrt(disc if disc > 0.0 else 0.0)) / A if A > 0.0 else 0.0
-            return ax + t * sx, ay + t * sy, az + t * sz
-        ax, ay, az = bx, by, bz
+            break
+        dx, dy, dz = bx - out[n - 1, 0], by - out[n - 1, 1], bz - out[n - 1, 2]
+        d = math.sqrt(dx * dx + dy * dy + dz * dz)
+        if d < 1e-9:
+            continue
+        out[n, 0], out[n, 1], out[n, 2] = bx, by, bz
+        length += d
+        n += 1
+    if length < reach and n >= 2:
+        # beyond the history: extend its last segment straight back
+        ex, ey, ez = out[n - 1, 0] - out[n - 2, 0], out[n - 1, 1] - out[n - 2, 1], out[n - 1, 2] - out[n - 2, 2]
+        en = math.sqrt(ex * ex + ey * ey + ez * ez)
+        f = (reach - length + 0.01) / en
+        out[n, 0], out[n, 1], out[n, 2] = out[n - 1, 0] + f * ex, out[n - 1, 1] + f * ey, out[n - 1, 2] + f * ez
+        n += 1
+    return n
 
 
 @numba.njit(cache=True)
-def _chord_clear(qx, qy, qz, node, NP, NPAR, hist, L, r, P, alive, head, nxt, origin, bucket,
-                 bdims):  # pragma: no cover - jitted
-    """True if the last link (a straight chord of length ``L`` from the path behind to q) keeps ``r``."""
-    jx, jy, jz = _chord_point(qx, qy, qz, node, NP, NPAR, hist, L)
+def _chain(line, n, L, count, pts):  # pragma: no cover - jitted
+    """``count`` chord points one ``L`` apart back along the polyline ``line[:n]`` (its first point the
+    tip) into ``pts``: the slithering chain (each the first crossing of the sphere of radius L around
+    the previous one); returns how many were found."""
+    cx, cy, cz = line[0, 0], line[0, 1], line[0, 2]
+    k = 1
+    L2 = L * L
+    for i in range(count):
+        found = False
+        ax, ay, az = cx, cy, cz
+        while k < n:
+            bx, by, bz = line[k, 0], line[k, 1], line[k, 2]
+            dx, dy, dz = bx - cx, by - cy, bz - cz
+            if dx * dx + dy * dy + dz * dz >= L2:
+                sx, sy, sz = bx - ax, by - ay, bz - az
+                wx, wy, wz = ax - cx, ay - cy, az - cz
+                A = sx * sx + sy * sy + sz * sz
+                B = wx * sx + wy * sy + wz * sz
+                C = wx * wx + wy * wy + wz * wz - L2
+                disc = B * B - A * C
+                t = (-B + math.sqrt(disc if disc > 0.0 else 0.0)) / A if A > 0.0 else 0.0
+                cx, cy, cz = ax + t * sx, ay + t * sy, az + t * sz
+                pts[i, 0], pts[i, 1], pts[i, 2] = cx, cy, cz
+                found = True
+                break
+            ax, ay, az = bx, by, bz
+            k += 1
+        if not found:
+            return i
+    return count
+
+
+@numba.njit(cache=True)
+def _body_clear(qx, qy, qz, node, NP, NPAR, hist, L, r_link, r_arm, line, pts, P, alive, head, nxt, origin,
+                bucket, bdims):  # pragma: no cover - jitted
+    """The body behind the tip at q: the last link (a straight chord, inside the bends of the path) keeps
+    ``r_link`` from every surface point, and the flange (the sixth chord point) and the point one link
+    behind it, where the arm begins, keep ``r_arm``."""
+    n = _backward(qx, qy, qz, node, NP, NPAR, hist, 7.5 * L, line)
+    m = _chain(line, n, L, 7, pts)
+    if m < 7:
+        return True
     for f in (0.25, 0.5, 0.75):
-        x = jx + f * (qx - jx)
-        y = jy + f * (qy - jy)
-        z = jz + f * (qz - jz)
-        if nearest_distance(x, y, z, r, P, alive, head, nxt, origin, bucket, bdims) < r:
+        x = pts[0, 0] + f * (qx - pts[0, 0])
+        y = pts[0, 1] + f * (qy - pts[0, 1])
+        z = pts[0, 2] + f * (qz - pts[0, 2])
+        if nearest_distance(x, y, z, r_link, P, alive, head, nxt, origin, bucket, bdims) < r_link:
+            return False
+    for i in (5, 6):
+        if nearest_distance(pts[i, 0], pts[i, 1], pts[i, 2], r_arm, P, alive, head, nxt, origin, bucket,
+                            bdims) < r_arm:
             return False
     return True
 
@@ -299,7 +349,8 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
     """Hybrid A* (see the module docstring).  Node arrays are preallocated by the caller.
 
     ``cfg`` = [step, samples, cell, heading_bin, epsilon, w_turn, max_expansions, max_length,
-    start_relax, start_margin, kappa_max, body_radius, link_length].
+    start_relax, start_margin, kappa_max, body_radius, link_length, arm_clearance, length_factor,
+    length_slack].
     Returns (status, final node, expansions, n_nodes).
     """
     step = cfg[0]
@@ -314,6 +365,9 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
     r_start = cfg[11] + cfg[9]
     kappa_max = cfg[10]
     link = cfg[12]
+    r_arm = cfg[13]
+    line = np.empty((512, 3))
+    chain_pts = np.empty((8, 3))
     n_goals = goals.shape[0]
     cap = NP.shape[0]
     dims = np.empty(3, dtype=np.int64)
@@ -334,6 +388,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
     h_start = _heuristic(p0[0], p0[1], p0[2], h0[0], h0[1], h0[2], k0, k0, goals, reach, rest, nav, nav_origin,
                          nav_cell, radius)
     heap = [(h_start * eps, 0)]
+    bound = cfg[14] * h_start + cfg[15]
     best_node = 0
     best_h = h_start
     expansions = 0
@@ -397,8 +452,8 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
             qx, qy, qz, tx, ty, tz = _arc(px, py, pz, hx, hy, hz, nx, ny, nz, kap, s_end)
             # the body: the last link is a straight chord behind the tip, inside the bends of the path
             rb = r_start if g + s_end < relax + link else rep[0]
-            if not _chord_clear(qx, qy, qz, node, NP, NPAR, hist, link, rb, P, alive, head, nxt, origin, bucket,
-                                bdims):
+            if not _body_clear(qx, qy, qz, node, NP, NPAR, hist, link, rb, r_arm, line, chain_pts, P, alive, head,
+                               nxt, origin, bucket, bdims):
                 continue
             tn = math.sqrt(tx * tx + ty * ty + tz * tz)
             tx /= tn
@@ -423,6 +478,8 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
             NDIR[q] = m
             NEND[q] = s_end
             h = _heuristic(qx, qy, qz, tx, ty, tz, kk, k0, goals, reach, rest, nav, nav_origin, nav_cell, radius)
+            if g2 + h > bound:
+                continue  # even the most optimistic way on is too long for the body to follow
             if h < best_h:
                 best_h = h
                 best_node = q
@@ -499,7 +556,8 @@ def search(smap: SensedMap, start: ArrayLike, heading: ArrayLike, goals: ArrayLi
         buf = _BUFFERS[cap] = _Buffers(cap)
     cfg = np.array([config.step, config.samples, config.cell, config.heading_bin, config.epsilon, config.w_turn,
                     config.max_expansions, config.max_length, config.start_relax, config.start_margin,
-                    1.0 / config.min_turn_radius, repulsion.body_radius, config.link_length])
+                    1.0 / config.min_turn_radius, repulsion.body_radius, config.link_length,
+                    min(config.arm_clearance, smap.config.bucket), config.length_factor, config.length_slack])
     rep = repulsion.vector()
     free, forigin, fcell, fdims = smap.free_arrays()
     box_lo = smap.origin
