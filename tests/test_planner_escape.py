@@ -230,15 +230,17 @@ def _cup(x0=0.5, x1=0.9, a=0.12, spacing=0.02) -> np.ndarray:
 
 
 def test_backing_out_of_a_pocket_in_a_point_cloud():
-    """The tip went 0.2 m into a pocket (0.24 m wide: it cannot turn inside) whose back is closed; the goal
-    lies behind the pocket.  From inside there is no way on; the branch point is the nearest point of the
-    path from which the search goes round the pocket, and the retreat takes the tip back to it."""
-    goal = np.array([[1.5, 0.0, 0.0]])
+    """The tip went 0.15 m into a pocket (0.24 m wide: it cannot turn inside, 0.3 m deep) whose back is
+    closed; the goal lies behind the pocket.  From inside there is no way on; the branch point is the
+    nearest point of the path from which the search goes round the pocket (body and arm clear of it), and
+    the retreat takes the tip back to it."""
+    mouth, back = 0.7, 1.0
+    goal = np.array([[1.6, 0.0, 0.0]])
     smap = SensedMap([0, 0, 0], goal[0])
-    cup = _cup()
+    cup = _cup(mouth, back)
     smap.add_points(cup)
     smap.mark_free([0.35, 0.0, 0.0], 0.3)
-    path = _straight_path(0.7)
+    path = _straight_path(mouth + 0.15)
     s0 = path.start_arc_length
     rep = Repulsion()
     cfg = SearchConfig(max_expansions=4000)  # a smaller budget keeps the test fast (a PARTIAL plan fails too)
@@ -254,7 +256,7 @@ def test_backing_out_of_a_pocket_in_a_point_cloud():
     x_branch = s - s0
     print(f"\npocket: branch point at x = {x_branch:.3f} m ({path.end_arc_length - s:.2f} m back), "
           f"plan {plan.length:.2f} m")
-    assert x_branch < 0.5 - 0.3  # well outside the mouth: room to swing round the pocket
+    assert x_branch < mouth - 0.25  # well outside the mouth: room to swing round the pocket
     assert plan.status == REACHED
     # the nearest such point: from one candidate nearer, no way on
     p1, t1 = path.point_at(s + CFG.step)
