@@ -43,7 +43,7 @@ class EscapeConfig:
         accel: retreat acceleration [m/s^2].
     """
 
-    step: float = 0.05
+    step: float = 0.1
     min_back: float = 0.05
     max_back: float = 1.5
     speed: float = 0.05
@@ -56,12 +56,13 @@ class EscapeConfig:
                 raise ValueError(f"EscapeConfig.{name} must be a positive number, got {v!r}")
 
 
-def find_branch_point(path: PathMemory, plan_from: Callable[[NDArray, NDArray], Plan],
+def find_branch_point(path: PathMemory, plan_from: Callable[[NDArray, NDArray, float], Plan],
                       config: EscapeConfig, before: float | None = None) -> tuple[float, Plan] | None:
     """The nearest arc length behind the end of ``path`` (and at or before ``before``), but not behind
     the tip's start, from which ``plan_from`` finds a complete way on (a plan through every goal).
 
-    ``plan_from(position, heading)`` searches from a state; returns ``(s, plan)`` or None.
+    ``plan_from(position, heading, s)`` searches from the path's state at arc length ``s``; returns
+    ``(s, plan)`` or None.
     """
     first = path.start_arc_length
     end = path.end_arc_length if before is None else min(path.end_arc_length, before + config.min_back)
@@ -69,7 +70,7 @@ def find_branch_point(path: PathMemory, plan_from: Callable[[NDArray, NDArray], 
     while back <= config.max_back + 1e-9:
         s = max(end - back, first)
         p, t = path.point_at(s)
-        plan = plan_from(p, t)
+        plan = plan_from(p, t, s)
         if plan.status == REACHED:
             return s, plan
         if s <= first:

@@ -23,7 +23,7 @@ and the filtered sensor readings (tests/test_isolation.py).  Units: metres, seco
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -32,7 +32,15 @@ from navstack.path import PathMemory
 from navstack.planner.escape import EscapeConfig, find_branch_point
 from navstack.planner.map import MapConfig, SensedMap
 from navstack.planner.potential import NavigationFunction, Repulsion, navigation_function
-from navstack.planner.search import NO_PATH, REACHED, Plan, SearchConfig, navigation_region, search
+from navstack.planner.search import (
+    NO_PATH,
+    REACHED,
+    Plan,
+    SearchConfig,
+    navigation_region,
+    search,
+    still_clear,
+)
 from navstack.planner.steering import PlanFollower, SteeringConfig
 from navstack.planner.types import TipCommand
 from navstack.retreat import Retreat
@@ -50,6 +58,7 @@ class FieldPlannerConfig:
         ray_start: rays mark free space from this distance from the tip [m].
         urgent_margin: a new surface point within the blocking radius plus this of the plan ahead
             forces a replan at once [m].
+        improve_budget: expansions of a replan while the plan being followed still holds.
         path_spacing: vertex spacing of the record of the commanded path: the controller's [m].
         nav_period: the navigation function is recomputed at least this often while the map
             changes [s] (and whenever the next goal changes, or a search fails with the old one).
@@ -66,6 +75,7 @@ class FieldPlannerConfig:
     urgent_margin: float = 0.005
     nav_period: float = 1.0
     path_spacing: float = 1e-3
+    improve_budget: int = 1500
 
     def __post_init__(self) -> None:
         for name in ("replan_period", "horizon", "ray_start", "urgent_margin", "nav_period"):
@@ -141,18 +151,25 @@ class FieldPlanner:
             self._nav = cached = (k, self.map.version, nav, self.time)
         return cached[2]
 
-    def _plan_from(self, p: NDArray[np.float64], h: NDArray[np.float64], k: int, fresh: bool = False) -> Plan:
+    def _plan_from(self, p: NDArray[np.float64], h: NDArray[np.float64], k: int, at: float | None = None,
+                   budget: int | None = None) -> Plan:
+        """Search from the state (p, h) for goals from ``k`` on, the body lying along the commanded path
+        behind arc length ``at`` (default: its end), with at most ``budget`` expansions (default: the
+        search's own)."""
         cfg = self.config
+        scfg = cfg.search if budget is None else replace(cfg.search, max_expansions=budget)
         k = self._passed(p, k)
-        plan = search(self.map, p, h, self.goals, self.tolerances, k, cfg.search, cfg.repulsion,
-                      history=self._tail(7.5 * cfg.search.link_length), nav=self._navigation(p, k, fresh))
-        if plan.status != REACHED and not fresh:
-            return self._plan_from(p, h, k, fresh=True)
+        end = self.path.end_arc_length if at is None else at
+        history = self._history(end, 7.5 * cfg.search.link_length)
+        plan = search(self.map, p, h, self.goals, self.tolerances, k, scfg, cfg.repulsion, history=history,
+                      nav=self._navigation(p, k, False))
+        if plan.status != REACHED and self._nav is not None and self._nav[1] != self.map.version:
+            plan = search(self.map, p, h, self.goals, self.tolerances, k, scfg, cfg.repulsion,
+                          history=history, nav=self._navigation(p, k, True))  # the map has grown since
         return plan
 
-    def _tail(self, length: float, spacing: float = 0.01) -> NDArray[np.float64]:
-        """The last ``length`` [m] of the commanded path every ``spacing`` [m], oldest first, ending at its end."""
-        end = self.path.end_arc_length
+    def _history(self, end: float, length: float, spacing: float = 0.01) -> NDArray[np.float64]:
+        """The commanded path's ``length`` [m] up to arc length ``end``, every ``spacing`` [m], oldest first."""
         s = np.append(np.arange(max(end - length, 0.0), end - 0.5 * spacing, spacing), end)
         return np.array([self.path.point_at(x)[0] for x in s])
 
@@ -179,24 +196,44 @@ class FieldPlanner:
         return False
 
     def _replan(self) -> None:
+        """Plan again from the commanded state.  While the plan being followed still holds, a short search
+        looks for a better one and keeps the old plan if it finds none; otherwise a full search."""
         p, h = self.follower.state()
-        plan = self._plan_from(p, h, self.command_goal)
+        holds = self._current_plan_holds()
+        plan = self._plan_from(p, h, self.command_goal,
+                               budget=self.config.improve_budget if holds else None)
         self.replans += 1
         self._planned_at = self.time
         self._planned_version = self.map.version
-        if plan.status == NO_PATH:
-            self._start_escape()
+        if plan.status != REACHED:
+            if holds:
+                return  # a search that fails where the plan being followed still holds changes nothing
+            # no way on found from here (boxed in, or the budget spent in a maze): back out to where
+            # one exists; with none, explore along the partial plan rather than give up
+            self._start_escape(fallback=plan if plan.status != NO_PATH else None)
             return
         self.follower = PlanFollower(plan, self.config.steering, self.follower.v)
 
-    def _start_escape(self) -> None:
+    def _current_plan_holds(self) -> bool:
+        """The plan being followed goes through every goal and is still clear in the map as it is now."""
+        f = self.follower
+        if f.plan.status != REACHED or f.remaining <= 0.0:
+            return False
+        cfg = self.config
+        history = self._history(self.path.end_arc_length, 7.5 * cfg.search.link_length)
+        return still_clear(self.map, f.plan, f.s, history, cfg.search, cfg.repulsion)
+
+    def _start_escape(self, fallback: Plan | None = None) -> None:
         # a new escape soon after the last branch point must go back beyond it (no retreat cycles)
         limit = self.path.end_arc_length
         if self._last_branch is not None and limit - self._last_branch < 0.3:
             limit = self._last_branch - self.config.escape.step
-        found = find_branch_point(self.path, lambda p, h: self._plan_from(p, h, self.command_goal, fresh=True),
+        found = find_branch_point(self.path, lambda p, h, at: self._plan_from(p, h, self.command_goal, at),
                                   self.config.escape, before=limit)
         if found is None:
+            if fallback is not None:
+                self.follower = PlanFollower(fallback, self.config.steering, self.follower.v)
+                return
             self.stalled = True
             self.mode = "stalled"
             return

@@ -44,7 +44,7 @@ from navstack.planner.potential import (
     navigation_function,
 )
 
-__all__ = ["NO_PATH", "PARTIAL", "REACHED", "Plan", "SearchConfig", "search"]
+__all__ = ["NO_PATH", "PARTIAL", "REACHED", "Plan", "SearchConfig", "search", "still_clear"]
 
 REACHED, PARTIAL, NO_PATH = 0, 1, 2
 
@@ -72,10 +72,11 @@ class SearchConfig:
         arm_clearance: the flange (six links behind the tip) and the point one link behind it, where the
             arm begins, keep this distance from sensed surfaces: the arm (radius 0.06 m) must not be
             drawn into the structure by a path longer than the serpentine [m].
-        length_factor, length_slack: a state whose cost so far plus the heuristic exceeds
-            ``length_factor`` times the start's heuristic plus ``length_slack`` [m] is not expanded: a
-            detour that long would draw the arm into the structure, and without the bound a search
-            from a state with no way on expands every loop it can reach.
+        length_factor, length_slack: a state whose path length so far plus its shortest length to go
+            (straight or turn-then-straight, obstacles ignored) exceeds ``length_factor`` times the
+            start's plus ``length_slack`` [m] is not expanded: a detour that long would draw the arm
+            into the structure, and without the bound a search from a state with no way on expands
+            every loop it can reach.
         nav_margin: the navigation function covers the box around the start and the goal grown by
             this [m].
         half_curvature: also primitives at half the largest curvature.
@@ -90,7 +91,7 @@ class SearchConfig:
     epsilon: float = 1.5
     w_turn: float = 0.05
     goal_fraction: float = 0.7
-    max_expansions: int = 20000
+    max_expansions: int = 8000
     max_length: float = 3.0
     start_relax: float = 0.06
     start_margin: float = 0.003
@@ -183,12 +184,13 @@ def _arc(px, py, pz, hx, hy, hz, nx, ny, nz, kappa, s):  # pragma: no cover - ji
 
 
 @numba.njit(cache=True)
-def turn_then_straight(px, py, pz, hx, hy, hz, gx, gy, gz, radius):  # pragma: no cover - jitted
+def turn_then_straight(px, py, pz, hx, hy, hz, gx, gy, gz, radius, lower=False):  # pragma: no cover - jitted
     """Length [m] of the shortest path from (p, unit h) to the point g with curvature <= 1/radius.
 
     A turn on the circle of ``radius`` towards g, in the plane of h and g - p, then a straight
     tangent (Dubins' "CS" path to a point, free final heading).  For a goal inside the turning
-    circle, where the tip must first move away, a full turn plus the depth inside (an estimate).
+    circle, where the tip must first move away, a full turn plus the depth inside (an estimate, often
+    too long: with ``lower`` the straight distance instead, which never is).
     """
     rx, ry, rz = gx - px, gy - py, gz - pz
     along = rx * hx + ry * hy + rz * hz
@@ -197,6 +199,8 @@ def turn_then_straight(px, py, pz, hx, hy, hz, gx, gy, gz, radius):  # pragma: n
     cx, cy = along, lat - radius
     q2 = cx * cx + cy * cy
     if q2 < radius * radius:
+        if lower:  # a lower bound: the straight distance (the estimate below is not one)
+            return math.sqrt(rx * rx + ry * ry + rz * rz)
         return 2.0 * math.pi * radius + (radius - math.sqrt(q2))
     t = math.sqrt(q2 - radius * radius)
     phi = (math.atan2(cy, cx) + 0.5 * math.pi - math.atan2(t, radius)) % (2.0 * math.pi)
@@ -210,7 +214,8 @@ def _heuristic(px, py, pz, hx, hy, hz, k, k_nav, goals, reach, rest, nav, nav_or
                radius):  # pragma: no cover - jitted
     """Cost-to-go estimate: the larger of the navigation function (obstacles, no curvature) for goal
     ``k_nav`` (the straight distance for later goals) and the turn-then-straight length (curvature,
-    no obstacles), plus the distances between the remaining goals."""
+    no obstacles), plus the distances between the remaining goals.  ``k_nav < 0``: a lower bound on
+    the length to go (no navigation function, no estimate inside the turning circle)."""
     if k >= goals.shape[0]:
         return 0.0
     gx, gy, gz = goals[k, 0], goals[k, 1], goals[k, 2]
@@ -224,7 +229,7 @@ def _heuristic(px, py, pz, hx, hy, hz, k, k_nav, goals, reach, rest, nav, nav_or
             v = nav[i, j, m] - 0.87 * nav_cell
             if v > d:
                 d = v
-    c = turn_then_straight(px, py, pz, hx, hy, hz, gx, gy, gz, radius) - reach[k]
+    c = turn_then_straight(px, py, pz, hx, hy, hz, gx, gy, gz, radius, k_nav < 0) - reach[k]
     if c > d:
         d = c
     return (d if d > 0.0 else 0.0) + rest[k]
@@ -345,7 +350,7 @@ def _body_clear(qx, qy, qz, node, NP, NPAR, hist, L, r_link, r_arm, line, pts, P
 def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, rep, hist,
                    nav, nav_origin, nav_cell,
                    P, alive, head, nxt, origin, bucket, bdims, free, fcell, fdims, box_lo, box_hi,
-                   NP, NH, NK, NG, NPAR, NKAP, NDIR, NEND):  # pragma: no cover - jitted
+                   NP, NH, NK, NG, NPAR, NKAP, NDIR, NEND, NL):  # pragma: no cover - jitted
     """Hybrid A* (see the module docstring).  Node arrays are preallocated by the caller.
 
     ``cfg`` = [step, samples, cell, heading_bin, epsilon, w_turn, max_expansions, max_length,
@@ -379,6 +384,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
     NH[0] = h0
     NK[0] = k0
     NG[0] = 0.0
+    NL[0] = 0.0
     NPAR[0] = -1
     NKAP[0] = 0.0
     NDIR[0] = 0.0
@@ -388,7 +394,10 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
     h_start = _heuristic(p0[0], p0[1], p0[2], h0[0], h0[1], h0[2], k0, k0, goals, reach, rest, nav, nav_origin,
                          nav_cell, radius)
     heap = [(h_start * eps, 0)]
-    bound = cfg[14] * h_start + cfg[15]
+    # the length bound: the straight / turn-then-straight length to go (no obstacles: a lower bound)
+    len_start = _heuristic(p0[0], p0[1], p0[2], h0[0], h0[1], h0[2], k0, -1, goals, reach, rest, nav, nav_origin,
+                           nav_cell, radius)
+    bound = cfg[14] * len_start + cfg[15]
     best_node = 0
     best_h = h_start
     expansions = 0
@@ -473,18 +482,71 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
             NH[q, 0], NH[q, 1], NH[q, 2] = tx, ty, tz
             NK[q] = kk
             NG[q] = g2
+            NL[q] = NL[node] + s_end
             NPAR[q] = node
             NKAP[q] = kap
             NDIR[q] = m
             NEND[q] = s_end
             h = _heuristic(qx, qy, qz, tx, ty, tz, kk, k0, goals, reach, rest, nav, nav_origin, nav_cell, radius)
-            if g2 + h > bound:
-                continue  # even the most optimistic way on is too long for the body to follow
+            if NL[node] + s_end + _heuristic(qx, qy, qz, tx, ty, tz, kk, -1, goals, reach, rest, nav, nav_origin,
+                                             nav_cell, radius) > bound:
+                continue  # even the shortest way on is too long for the body to follow
             if h < best_h:
                 best_h = h
                 best_node = q
             heapq.heappush(heap, (g2 + eps * h, q))
     return 2, best_node, expansions, n_nodes
+
+
+@numba.njit(cache=True)
+def _path_clear(pts, hist, every, link, r_block, r_arm, P, alive, head, nxt, origin, bucket,
+                bdims):  # pragma: no cover - jitted
+    """True if the tip path ``pts`` keeps ``r_block`` from every surface point at each sample, and the
+    body behind it (checked every ``every`` samples, the history ``hist`` behind ``pts[0]``) is clear."""
+    n = pts.shape[0]
+    line = np.empty((n + hist.shape[0] + 2, 3))
+    chain_pts = np.empty((8, 3))
+    for i in range(n):
+        if nearest_distance(pts[i, 0], pts[i, 1], pts[i, 2], r_block, P, alive, head, nxt, origin, bucket,
+                            bdims) < r_block:
+            return False
+    for i in range(every, n, every):
+        m = 0
+        for j in range(i, -1, -1):
+            line[m] = pts[j]
+            m += 1
+        for j in range(hist.shape[0] - 2, -1, -1):
+            line[m] = hist[j]
+            m += 1
+        c = _chain(line, m, link, 7, chain_pts)
+        if c < 7:
+            continue
+        for f in (0.25, 0.5, 0.75):
+            x = chain_pts[0, 0] + f * (pts[i, 0] - chain_pts[0, 0])
+            y = chain_pts[0, 1] + f * (pts[i, 1] - chain_pts[0, 1])
+            z = chain_pts[0, 2] + f * (pts[i, 2] - chain_pts[0, 2])
+            if nearest_distance(x, y, z, r_block, P, alive, head, nxt, origin, bucket, bdims) < r_block:
+                return False
+        for q in (5, 6):
+            if nearest_distance(chain_pts[q, 0], chain_pts[q, 1], chain_pts[q, 2], r_arm, P, alive, head, nxt,
+                                origin, bucket, bdims) < r_arm:
+                return False
+    return True
+
+
+def still_clear(smap: SensedMap, plan: Plan, s: float, history: ArrayLike, config: SearchConfig,
+                repulsion: Repulsion) -> bool:
+    """Whether the rest of ``plan`` from arc length ``s`` is still clear in the map as it is now (the
+    tip and the body, as :func:`search` requires), the body lying along ``history`` behind it."""
+    i = int(np.searchsorted(plan.arc, s))
+    pts = np.ascontiguousarray(plan.points[i:])
+    if len(pts) == 0:
+        return True
+    hist = np.asarray(history, dtype=np.float64).reshape(-1, 3)
+    every = max(1, int(round(config.step / max(float(np.median(np.diff(plan.arc))) if len(plan.arc) > 1 else 1.0,
+                                                1e-6))))
+    return bool(_path_clear(pts, hist, every, config.link_length, repulsion.r_block,
+                            min(config.arm_clearance, smap.config.bucket), *smap.arrays()))
 
 
 # ------------------------------------------------------------------------------------------ driver
@@ -500,6 +562,7 @@ class _Buffers:
         self.KAP = np.zeros(cap)
         self.DIR = np.zeros(cap)
         self.END = np.zeros(cap)
+        self.L = np.zeros(cap)
 
 
 _BUFFERS: dict[int, _Buffers] = {}
@@ -565,7 +628,7 @@ def search(smap: SensedMap, start: ArrayLike, heading: ArrayLike, goals: ArrayLi
     status, last, expansions, _ = _search_kernel(
         p0, h0, k0, G, reach, rest, kap, dc, ds, cfg, rep, hist, nav.values, nav.origin, nav.cell,
         *smap.arrays(), free, fcell, fdims,
-        box_lo, box_hi, buf.P, buf.H, buf.K, buf.G, buf.PAR, buf.KAP, buf.DIR, buf.END)
+        box_lo, box_hi, buf.P, buf.H, buf.K, buf.G, buf.PAR, buf.KAP, buf.DIR, buf.END, buf.L)
     if status == PARTIAL and last == 0:
         status = NO_PATH  # no state closer to the goal than the start: no way on
     return _densify(buf, int(status), int(last), int(expansions), p0, h0, k0, kap, dc, ds,
