@@ -20,7 +20,7 @@ from navstack.planner.potential import Repulsion
 from navstack.planner.search import NO_PATH, REACHED, Plan, SearchConfig, search
 from navstack.retreat import Retreat
 
-CFG = EscapeConfig()
+CFG = EscapeConfig(step=0.05, min_back=0.05, max_back=1.5)  # pinned: the expected candidates are worked out below
 X = np.array([1.0, 0.0, 0.0])
 LINK = 0.2
 
@@ -54,14 +54,22 @@ def _fake_plan(status: int) -> Plan:
 
 
 class FakeSearch:
-    """``plan_from`` that reaches the goals exactly from the states where ``ok(position, heading)``; records calls."""
+    """``plan_from`` that reaches the goals exactly from the states where ``ok(position, heading)``; records calls
+    (and checks that the arc length it is given is that of the state)."""
 
-    def __init__(self, ok) -> None:
+    def __init__(self, ok, path: PathMemory | None = None) -> None:
         self.ok = ok
+        self.path = path
         self.calls: list[tuple[np.ndarray, np.ndarray]] = []
+        self.arcs: list[float] = []
 
-    def __call__(self, p, t) -> Plan:
+    def __call__(self, p, t, s) -> Plan:
         self.calls.append((np.array(p), np.array(t)))
+        self.arcs.append(float(s))
+        if self.path is not None:
+            q, u = self.path.point_at(s)
+            np.testing.assert_allclose(p, q, atol=1e-12)
+            np.testing.assert_allclose(t, u, atol=1e-12)
         return _fake_plan(REACHED if self.ok(p, t) else NO_PATH)
 
 
@@ -70,7 +78,7 @@ def test_the_nearest_candidate_with_a_way_on_is_the_branch_point():
     path = _straight_path(0.8)
     s0, end = path.start_arc_length, path.end_arc_length
     assert end - s0 == pytest.approx(0.8)
-    fake = FakeSearch(lambda p, t: p[0] <= 0.32)  # a way on only from x <= 0.32
+    fake = FakeSearch(lambda p, t: p[0] <= 0.32, path)  # a way on only from x <= 0.32
     s, plan = find_branch_point(path, fake, CFG)
     assert plan.status == REACHED
     # candidates every 5 cm from 5 cm behind the end: x = 0.75, 0.70, ...; the first at or below 0.32 is 0.30
@@ -78,6 +86,17 @@ def test_the_nearest_candidate_with_a_way_on_is_the_branch_point():
     xs = np.array([p[0] for p, _ in fake.calls])
     np.testing.assert_allclose(xs, 0.8 - CFG.min_back - CFG.step * np.arange(len(xs)), atol=1e-9)
     assert xs[-1] == pytest.approx(0.30)
+    np.testing.assert_allclose(np.array(fake.arcs) - s0, xs, atol=1e-9)  # the arc length of each state
+
+
+def test_the_default_configuration_looks_back_in_its_own_steps():
+    path = _straight_path(0.8)
+    cfg = EscapeConfig()
+    fake = FakeSearch(lambda p, t: p[0] <= 0.32, path)
+    s, _ = find_branch_point(path, fake, cfg)
+    backs = 0.8 - np.array([p[0] for p, _ in fake.calls])
+    np.testing.assert_allclose(backs, cfg.min_back + cfg.step * np.arange(len(backs)), atol=1e-9)
+    assert s - path.start_arc_length <= 0.32 < s - path.start_arc_length + cfg.step
     for p, t in fake.calls:  # each candidate state is the path's point and forward tangent
         np.testing.assert_allclose(p[1:], 0.0, atol=1e-12)
         np.testing.assert_allclose(t, X, atol=1e-12)
@@ -86,7 +105,7 @@ def test_the_nearest_candidate_with_a_way_on_is_the_branch_point():
 def test_candidates_on_a_curved_path_are_its_points_and_forward_tangents():
     path = _curved_path()
     s0 = path.start_arc_length
-    fake = FakeSearch(lambda p, t: p[1] < 0.05)  # only from early on the arc (or the straight part)
+    fake = FakeSearch(lambda p, t: p[1] < 0.05, path)  # only from early on the arc (or the straight part)
     s, _ = find_branch_point(path, fake, CFG)
     for p, t in fake.calls:
         assert _nearest_on_path(path, p)[1] < 1e-9
@@ -245,13 +264,12 @@ def test_backing_out_of_a_pocket_in_a_point_cloud():
     rep = Repulsion()
     cfg = SearchConfig(max_expansions=4000)  # a smaller budget keeps the test fast (a PARTIAL plan fails too)
 
-    def plan_from(p, t):
-        s = _arc_of(path, p)
-        hist = np.array([path.point_at(x)[0] for x in np.append(np.arange(max(s - 0.3, 0.0), s, 0.01), s)])
+    def plan_from(p, t, s):
+        hist = np.array([path.point_at(x)[0] for x in np.append(np.arange(max(s - 1.5, 0.0), s - 0.005, 0.01), s)])
         return search(smap, p, t, goal, [0.02], 0, cfg, rep, history=hist)
 
     head, tangent = path.point_at(path.end_arc_length)
-    assert plan_from(head, tangent).status == NO_PATH  # boxed in
+    assert plan_from(head, tangent, path.end_arc_length).status == NO_PATH  # boxed in
     s, plan = find_branch_point(path, plan_from, CFG)
     x_branch = s - s0
     print(f"\npocket: branch point at x = {x_branch:.3f} m ({path.end_arc_length - s:.2f} m back), "
@@ -260,7 +278,7 @@ def test_backing_out_of_a_pocket_in_a_point_cloud():
     assert plan.status == REACHED
     # the nearest such point: from one candidate nearer, no way on
     p1, t1 = path.point_at(s + CFG.step)
-    assert plan_from(p1, t1).status != REACHED
+    assert plan_from(p1, t1, s + CFG.step).status != REACHED
     # the plan goes round the pocket, clear of it
     d = cKDTree(cup).query(plan.points)[0]
     assert d.min() >= rep.r_block - 4e-4
