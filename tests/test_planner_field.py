@@ -199,14 +199,15 @@ def test_a_wall_with_a_slot_off_the_goal_line_is_passed_without_touching():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=(
-    "FieldPlanner neither reaches nor gives up: wall x = 0.5 (1.2 m square) with a slot |y - 0.15| < 0.05, "
-    "goal (1, 0, 0), start at the origin heading +x, seed 0: after 120 s it has gone through the slot and "
-    "backed out again and again (19 retreats, half the steps reverse), never stalled"))
 def test_a_goal_too_close_behind_a_slot_is_reached_or_given_up():
+    """Wall x = 0.5 with a slot |y - 0.15| < 0.05, the goal only 0.5 m behind it: the body may not be able to
+    turn to it after the slot (a planner version went through the slot and backed out 19 times in 120 s,
+    neither reaching nor giving up); it must end one way or the other."""
     f = _fly(boxes=_slot_wall(y0=0.15, width=0.1), goals=[(1.0, 0.0, 0.0)], t_max=120.0)
-    assert f.clearance > 0.0  # true either way: it never touches
+    print(f"\nslot 0.5 m before the goal: reached {f.reached}, stalled {f.stalled} after {f.steps * DT:.1f} s, "
+          f"{f.planner.retreats} retreats, clearance {f.clearance * 1e3:.1f} mm")
     assert f.reached or f.stalled
+    assert f.clearance > 0.0
 
 
 def test_same_seed_same_commands():
@@ -253,12 +254,6 @@ def test_a_pocket_entered_by_mistake_is_backed_out_of_along_the_commanded_path(p
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=(
-    "FieldPlanner backs out of the pocket but never goes round it: cup open towards -x (0.24 m square inside, "
-    "mouth x = 0.6, back x = 1.1), goal (1.6, 0, 0), start at the origin heading +x, seed 0: 6 retreats from "
-    "x = 0.835 back to 0.535 in 5 cm steps, then stalled at step 852 (no branch point back to the start gives "
-    "a REACHED plan), although search finds the way round from the start in the fully seen cup (1.74 m, 2080 "
-    "expansions); with the cup's surroundings unseen it returns PARTIAL even after 100000 expansions"))
 def test_after_backing_out_of_the_pocket_the_goal_is_reached_round_it(pocket_flight):
     f = pocket_flight
     assert f.reached and not f.stalled
@@ -268,14 +263,12 @@ def test_after_backing_out_of_the_pocket_the_goal_is_reached_round_it(pocket_fli
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=(
-    "FieldPlanner never gives up on a fully enclosed goal: boxed goal at (1, 0, 0), walls 0.2 m from it, "
-    "start at the origin heading +x, seed 0: after 120 s (3600 steps) it has neither stalled nor touched: "
-    "10 retreats in front of the box, then it circles the box"))
 def test_a_fully_enclosed_goal_ends_stalled_without_touching():
     f = _fly(boxes=_enclosure([1.0, 0.0, 0.0]), goals=[(1.0, 0.0, 0.0)], t_max=120.0)
-    assert f.clearance > 0.0  # true either way: it never touches
+    print(f"\nenclosed goal: stalled {f.stalled} after {f.steps * DT:.1f} s, {f.planner.retreats} retreats, "
+          f"clearance {f.clearance * 1e3:.1f} mm")
     assert f.stalled and not f.reached
+    assert f.clearance > 0.0
 
 
 # ---------------------------------------------------------------------------- interface and isolation
