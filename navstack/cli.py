@@ -175,6 +175,12 @@ def _report(args: argparse.Namespace) -> int:
     return run_from_args(args)
 
 
+def _compare(args: argparse.Namespace) -> int:
+    from navstack.compare import run_from_args
+
+    return run_from_args(args)
+
+
 def _model(args: argparse.Namespace) -> int:
     import numpy as np
 
@@ -334,6 +340,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_report_arguments(rp)
     rp.set_defaults(func=_report)
+
+    cp = sub.add_parser("compare", help="compare the success rates of two sweeps (Markdown, paired where possible)")
+    from navstack.compare import add_arguments as add_compare_arguments
+
+    add_compare_arguments(cp)
+    cp.set_defaults(func=_compare)
 
     m = sub.add_parser("model", help="print the robot model (Figure 2 in metres) and the default posture")
     m.set_defaults(func=_model)

@@ -9,7 +9,12 @@ optionally with ``trial_id``, ``family`` and ``difficulty``) and writes ``DIR/re
 * failure causes: counts of ``reason`` among unsuccessful trials, per method;
 * distributions (n, min, p10, median, p90, max, mean) of ``metrics.min_clearance`` (m) and
   ``metrics.slither_deviation_max`` (m) over all trials that report them, and of time to goal
-  (``sim_time``, s) over successful trials.
+  (``sim_time``, s) over successful trials;
+* retraction: when some records carry ``retracted`` (trials of ``retract`` worlds, interfaces.md section 2a),
+  the success tables get a column ``retracted`` = retracted / trials that carry the key;
+* provenance: every distinct software identity (navstack version, commit, Python, PyBullet, numpy) found in
+  the lines' ``provenance``, with its backends, hosts and trial count, and a warning at the top when a sweep
+  mixes versions (or mixes lines with and without provenance).
 
 Conventions: a trial counts as a success only if ``success`` is ``true``; trials with ``reason: "error"``
 (the trial itself crashed or hung) count as failures and the report says how many there were. A record
@@ -28,7 +33,7 @@ import argparse
 import math
 import sys
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -54,22 +59,20 @@ class ReportError(ValueError):
 def wilson_interval(successes: int, n: int, z: float = Z95) -> tuple[float, float]:
     """Wilson score interval for ``successes`` out of ``n`` Bernoulli trials (default 95 %).
 
-    ``(p + z^2/2n -+ z sqrt(p(1-p)/n + z^2/4n^2)) / (1 + z^2/n)`` with ``p = successes / n``; unlike the
-    normal approximation it stays inside [0, 1] and is not degenerate at 0/n or n/n.
+    ``(p + z^2/2n -+ z sqrt(p(1-p)/n + z^2/4n^2)) / (1 + z^2/n)`` with ``p = successes / n`` (scipy's
+    ``binomtest(...).proportion_ci(method="wilson")`` at the level of ``z``); unlike the normal approximation it
+    stays inside [0, 1] and is not degenerate at 0/n or n/n.
     Raises ValueError unless ``0 <= successes <= n`` and ``n >= 1``.
     """
+    from scipy.stats import binomtest, norm
+
     if isinstance(successes, bool) or isinstance(n, bool) or int(successes) != successes or int(n) != n:
         raise ValueError(f"wilson_interval: integer counts expected, got successes={successes!r}, n={n!r}")
     if n < 1 or not 0 <= successes <= n:
         raise ValueError(f"wilson_interval: need n >= 1 and 0 <= successes <= n, got {successes}/{n}")
-    p = successes / n
-    z2 = z * z
-    denom = 1.0 + z2 / n
-    center = (p + z2 / (2 * n)) / denom
-    half = z * math.sqrt(p * (1 - p) / n + z2 / (4 * n * n)) / denom
-    lo, hi = center - half, center + half
+    ci = binomtest(int(successes), int(n)).proportion_ci(confidence_level=2 * norm.cdf(z) - 1, method="wilson")
     # exact at the ends (rounding would otherwise leave 1e-17 off 0 or 1)
-    return (0.0 if successes == 0 else max(0.0, lo), 1.0 if successes == n else min(1.0, hi))
+    return (0.0 if successes == 0 else float(ci.low), 1.0 if successes == n else float(ci.high))
 
 
 @dataclass(frozen=True)
@@ -111,6 +114,32 @@ class Stats:
 
 
 @dataclass(frozen=True)
+class Provenance:
+    """One software identity found in a sweep (``key`` = :data:`navstack.provenance.VERSION_KEYS` values, or
+    ``None`` for lines without ``provenance``), the backends and hosts that ran it and its trial count."""
+
+    key: tuple[Any, ...] | None
+    backends: tuple[str, ...]
+    hosts: tuple[str, ...]
+    trials: int
+
+
+def _provenances(records: Sequence[Mapping[str, Any]]) -> tuple[Provenance, ...]:
+    from navstack.provenance import version_key
+
+    groups: dict[Any, list[Mapping[str, Any]]] = {}
+    for r in records:
+        groups.setdefault(version_key(r.get("provenance")), []).append(r)
+
+    def names(recs: list[Mapping[str, Any]], key: str) -> tuple[str, ...]:
+        return tuple(sorted({str((r.get("provenance") or {}).get(key)) for r in recs
+                             if isinstance(r.get("provenance"), Mapping) and (r["provenance"].get(key) is not None)}))
+
+    return tuple(Provenance(key=k, backends=names(v, "backend"), hosts=names(v, "host"), trials=len(v))
+                 for k, v in sorted(groups.items(), key=lambda kv: (kv[0] is None, repr(kv[0]))))
+
+
+@dataclass(frozen=True)
 class Summary:
     """Everything the report shows; keys are plain strings / floats so it is easy to test.
 
@@ -129,6 +158,14 @@ class Summary:
     reasons: dict[tuple[str, str], dict[str, int]]
     values: dict[str, dict[tuple[str, str], tuple[float, ...]]]
     errors: int
+    retracted_by_method: dict[tuple[str, str], tuple[int, int]] = field(default_factory=dict)
+    retracted_by_cell: dict[tuple[str, float | None, tuple[str, str]], tuple[int, int]] = field(default_factory=dict)
+    provenance: tuple[Provenance, ...] = ()
+
+    @property
+    def mixed_versions(self) -> bool:
+        """More than one software identity among the lines (lines without provenance count as one)."""
+        return len(self.provenance) > 1
 
     def stats(self, metric: str, method: tuple[str, str]) -> Stats:
         """:class:`Stats` of ``metric`` for ``method``."""
@@ -170,6 +207,11 @@ def _check_record(rec: Any) -> str | None:
     tid = rec.get("trial_id")
     if tid is not None and not isinstance(tid, str):
         return f"field 'trial_id' must be a string, got {tid!r}"
+    if "retracted" in rec and not isinstance(rec["retracted"], bool):
+        return f"field 'retracted' must be true or false, got {rec['retracted']!r}"
+    prov = rec.get("provenance")
+    if prov is not None and not isinstance(prov, Mapping):
+        return f"field 'provenance' must be an object, got {prov!r}"
     return None
 
 
@@ -227,6 +269,15 @@ def summarize(records: Iterable[Mapping[str, Any]], *, checked: bool = False) ->
             c[1] += 1
         return {k: Rate.of(s, n) for k, (s, n) in counts.items()}
 
+    def tally_retracted(keyf: Any) -> dict[Any, tuple[int, int]]:
+        counts: dict[Any, list[int]] = {}
+        for r in records:
+            if "retracted" in r:
+                c = counts.setdefault(keyf(r), [0, 0])
+                c[0] += r["retracted"] is True
+                c[1] += 1
+        return {k: (a, b) for k, (a, b) in counts.items()}
+
     by_method = tally(method)
     by_family = tally(lambda r: (family(r), method(r)))
     by_cell = tally(lambda r: (family(r), r.get("difficulty"), method(r)))
@@ -250,6 +301,9 @@ def summarize(records: Iterable[Mapping[str, Any]], *, checked: bool = False) ->
         reasons=reasons,
         values={k: {m: tuple(sorted(v)) for m, v in d.items()} for k, d in values.items()},
         errors=sum(1 for r in records if r["reason"] == "error"),
+        retracted_by_method=tally_retracted(method),
+        retracted_by_cell=tally_retracted(lambda r: (family(r), r.get("difficulty"), method(r))),
+        provenance=_provenances(records),
     )
 
 
@@ -332,9 +386,24 @@ def render_markdown(s: Summary, *, source: str = "results.jsonl", plots: Sequenc
                   "resume the sweep to rerun that trial."]
     plot_of = {Path(p).name: p for p in plots}
 
+    if s.mixed_versions:
+        lines += ["", f"**Warning: this sweep mixes software versions** ({len(s.provenance)} different "
+                  "navstack / commit / Python / PyBullet / numpy combinations, see Provenance below); its "
+                  "trials may not be comparable."]
+    retraction = bool(s.retracted_by_method)
+    retract_header = ["retracted"] if retraction else []
+
+    def retracted(counts: tuple[int, int] | None) -> list[str]:
+        if not retraction:
+            return []
+        return ["-" if counts is None else f"{counts[0]}/{counts[1]}"]
+
     lines += ["", "## Success rate per controller", ""]
-    lines += _table(["controller", "planner", *RATE_HEADER],
-                    ([m[0], m[1], *_rate_cells(s.by_method[m])] for m in s.methods))
+    if retraction:
+        lines += ["`retracted`: trials that backed out completely / trials of worlds that ask for it.", ""]
+    lines += _table(["controller", "planner", *RATE_HEADER, *retract_header],
+                    ([m[0], m[1], *_rate_cells(s.by_method[m]), *retracted(s.retracted_by_method.get(m))]
+                     for m in s.methods))
 
     lines += ["", "## Success rate per family (controllers side by side)", "",
               "Each cell: success rate (successes/trials) [95 % CI].", ""]
@@ -353,8 +422,9 @@ def render_markdown(s: Summary, *, source: str = "results.jsonl", plots: Sequenc
             lines += ["", f"![{alt}]({plot_of[name]})"]
 
     lines += ["", "## Success rate per family, difficulty and controller", ""]
-    lines += _table(["family", "difficulty", "controller", "planner", *RATE_HEADER],
-                    ([f, _fmt_diff(d), m[0], m[1], *_rate_cells(r)] for (f, d, m), r in s.by_cell.items()))
+    lines += _table(["family", "difficulty", "controller", "planner", *RATE_HEADER, *retract_header],
+                    ([f, _fmt_diff(d), m[0], m[1], *_rate_cells(r), *retracted(s.retracted_by_cell.get((f, d, m)))]
+                     for (f, d, m), r in s.by_cell.items()))
 
     lines += ["", "## Failure causes", "", "Counts of `reason` among unsuccessful trials.", ""]
     seen = sorted({k for d in s.reasons.values() for k in d}, key=REASONS.index)
@@ -373,7 +443,19 @@ def render_markdown(s: Summary, *, source: str = "results.jsonl", plots: Sequenc
                          for m in s.methods for st in [s.stats(metric, m)]))
         if png in plot_of:
             lines += ["", f"![{title}]({plot_of[png]})"]
+    lines += _provenance_section(s)
     return "\n".join(lines) + "\n"
+
+
+def _provenance_section(s: Summary) -> list[str]:
+    lines = ["", "## Provenance", "", "What produced the lines (`provenance` on each line of results.jsonl).", ""]
+    rows = []
+    for p in s.provenance:
+        cells = ["(not recorded)", "-", "-", "-", "-"] if p.key is None else \
+            ["-" if v is None else f"`{v}`" if i == 1 else str(v) for i, v in enumerate(p.key)]
+        rows.append([*cells, ", ".join(p.backends) or "-", ", ".join(p.hosts) or "-", p.trials])
+    return lines + _table(["navstack", "commit", "python", "pybullet", "numpy", "backends", "hosts", "trials"],
+                          rows)
 
 
 # --------------------------------------------------------------------------------------------------------
@@ -505,6 +587,9 @@ def run_from_args(args: argparse.Namespace) -> int:
     except ReportError as exc:
         print(f"navstack report: error: {exc}", file=sys.stderr)
         return 2
+    if "**Warning: this sweep mixes software versions**" in path.read_text(encoding="utf-8"):
+        print(f"navstack report: warning: {args.dir} mixes software versions (see Provenance in {path})",
+              file=sys.stderr)
     print(path)
     return 0
 

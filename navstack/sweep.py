@@ -1,4 +1,4 @@
-"""Randomized trial sweeps: many closed-loop trials in parallel worker processes, with resume.
+"""Randomized trial sweeps: many closed-loop trials in parallel, locally or on a Ray cluster, with resume.
 
 ``navstack trials`` (interfaces.md section 4) runs every combination of world x controller x planner
 (x repetition) and appends one JSON line per finished trial to ``DIR/results.jsonl``.
@@ -10,56 +10,62 @@ Trial list
     ``(seed, family, index)`` only, so the same index gives the same layout at every difficulty and the same
     seed always gives the same worlds. The trial's noise seed is derived the same way and is shared by all
     controllers and planners on one world (paired comparison). The list is ordered by index first, so an
-    interrupted sweep has covered every family / difficulty / controller about equally.
+    interrupted sweep has covered every family / difficulty / controller about equally. ``--retract``
+    (``SweepConfig.retract``) asks the generator for worlds the robot must back out of
+    (``generate_world(..., retract=True)``, interfaces.md section 2a): same seeds, ids ending in ``__retract``.
 
-Outputs in ``DIR``
+Outputs in ``DIR`` (only this process, the driver, writes them; workers return data)
     * ``sweep.json``: the trial list (and the config / command that made it). A rerun whose trial list differs
       is refused with :class:`SweepError`; use a new ``--out`` directory instead.
     * ``results.jsonl``: one line per finished trial: the ``result.json`` fields of interfaces.md section 3
-      plus ``trial_id``, ``family``, ``difficulty``, ``index``, ``world_id``, ``world_file`` and
-      ``world_seed``. Only the parent process writes it, one ``os.write`` of a whole line followed by
-      ``fsync``. Lines appear in completion order while the sweep runs; when every trial is done the file is
-      rewritten (atomically, via ``os.replace``) in trial-list order, so a completed sweep's file is identical
-      for identical inputs except for ``wall_time``. Non-finite floats are written as ``null`` (strict JSON).
+      plus ``trial_id``, ``family``, ``difficulty``, ``index``, ``world_id``, ``world_file``, ``world_seed``
+      and ``provenance`` (:mod:`navstack.provenance`), one ``os.write`` of a whole line followed by ``fsync``.
+      Lines appear in completion order while the sweep runs; when every trial is done the file is rewritten
+      (atomically, via ``os.replace``) in trial-list order, so a completed sweep's file is identical for
+      identical inputs except for ``wall_time`` (and ``provenance``'s ``host`` and ``backend`` when run
+      elsewhere). Non-finite floats are written as ``null`` (strict JSON).
     * ``worlds/<world_id>.json``: each generated world, as the trial loaded it; rerun one by hand with
       ``navstack run DIR/worlds/<world_id>.json --controller C --planner P --seed S`` (values from its line).
-    * ``workers.log``: the worker processes' stdout/stderr (PyBullet banners, prints), kept off the terminal.
+    * ``workers.log``: the local worker processes' stdout/stderr (PyBullet banners, prints), kept off the
+      terminal (Ray keeps its workers' output in its own logs).
     * ``sweep.lock``: held (``flock``) while a sweep runs, so a second sweep on the same ``DIR`` is refused.
     * ``trials/<trial_id>/`` (only with ``keep_trajectories``): each trial's ``result.json`` and trajectory.
 
 Resume and crash safety
     A rerun on the same ``DIR`` skips every ``trial_id`` already in ``results.jsonl``. A line is only written
     once a trial has finished, so a Ctrl-C, ``kill`` or power loss never records a trial twice, and a
-    recorded trial is never lost. If the parent was killed in the middle of writing a line, the file ends
+    recorded trial is never lost. If the driver was killed in the middle of writing a line, the file ends
     with an unterminated line: on resume (and in :func:`read_results`) a last line that lacks its final
     newline and is not valid JSON is recognised as such a truncated write and dropped (the file is truncated
-    back to the last complete line, and that trial runs again). Any other malformed line is an error naming
-    the file and line: it is never silently discarded.
+    back to the last complete line, and that trial runs again); a complete last line without its newline is
+    kept and terminated before anything is appended. Any other malformed line is an error naming the file
+    and line: it is never silently discarded.
 
 Failures
-    A trial whose runner raises, whose worker process dies, or which exceeds ``trial_timeout`` seconds of wall
-    clock (the worker is killed and a fresh one started) is recorded with ``success: false``,
-    ``reason: "error"`` and an ``error`` message; the sweep goes on. Such lines count as finished: a resume
-    does not retry them (start a new ``DIR`` to retry). Unknown metrics of error lines are ``null``.
-    The wall-clock limit starts when a worker that has finished starting up (imports done) receives the
-    trial, so a slow worker start is never charged to a trial. A worker that cannot start at all (its runner
-    does not import) stops the sweep with :class:`SweepWorkerError` instead of being restarted forever.
+    A trial whose runner raises, whose worker process dies, which exceeds ``trial_timeout`` seconds of wall
+    clock (the worker is killed and a fresh one started), whose Ray task fails after Ray's retries, or whose
+    world file (``--worlds``) cannot be read or is not valid JSON (the line names the file, line and column)
+    is recorded with ``success: false``, ``reason: "error"`` and an ``error`` message; the sweep goes on.
+    Such lines count as finished: a resume does not retry them (start a new ``DIR`` to retry). Unknown
+    metrics of error lines are ``null``. The wall-clock limit starts when a started worker takes the trial,
+    so a slow worker start is never charged to a trial. Workers that cannot start at all (the runner does not
+    import) stop the sweep with :class:`SweepWorkerError` instead of being restarted forever.
 
 Processes
-    Workers are started with the ``spawn`` method: PyBullet is only ever created inside workers, never in the
-    parent. Workers ignore SIGINT (the parent handles Ctrl-C, stops them and keeps what finished) and exit
-    by themselves if the parent disappears (``SIGKILL`` of the parent).
+    See :mod:`navstack.executors`: worker processes are spawned (PyBullet is only ever created inside
+    workers), ignore SIGINT (the driver handles Ctrl-C and SIGTERM, stops them and keeps what finished) and
+    exit by themselves if the driver disappears (``SIGKILL`` of the driver).
 """
 
 from __future__ import annotations
 
 import argparse
+import concurrent.futures as cf
 import contextlib
 import dataclasses
 import hashlib
 import json
 import math
-import multiprocessing as mp
 import os
 import pickle
 import shlex
@@ -67,17 +73,23 @@ import signal
 import sys
 import threading
 import time
-import traceback
 from collections import deque
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
-from multiprocessing.connection import wait as mp_wait
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+from navstack.executors import BACKENDS, SweepWorkerError, error_reply
+
+if TYPE_CHECKING:
+    from navstack.executors import TrialJob
+
+__all__ = ["SweepConfig", "SweepError", "SweepSummary", "SweepWorkerError", "TrialSpec", "build_specs",
+           "read_results", "run_sweep"]
 
 SWEEP_FORMAT = "navstack-sweep/1"
 DEFAULT_TRIAL_TIMEOUT = 600.0
-"""Default per-trial wall-clock limit (s), counted from the moment a worker receives the trial."""
+"""Default per-trial wall-clock limit (s), counted from the moment a started worker takes the trial."""
 
 RESULTS_NAME = "results.jsonl"
 SWEEP_NAME = "sweep.json"
@@ -110,8 +122,10 @@ class TrialSpec:
     """One trial of a sweep.
 
     ``world_file`` is relative to the sweep directory for generated worlds (``worlds/<world_id>.json``,
-    written by the worker) and an absolute path for ``--worlds`` files. ``world_seed`` is ``None`` for a
+    written by the driver) and an absolute path for ``--worlds`` files. ``world_seed`` is ``None`` for a
     world read from a file. ``difficulty`` is dimensionless (the generator's scale), ``None`` if unknown.
+    ``retract``: the world asks the robot to back out after the last goal (interfaces.md section 2a); left
+    out of :meth:`to_dict` when false, so trial lists from before the flag existed still match.
     """
 
     trial_id: str
@@ -124,6 +138,7 @@ class TrialSpec:
     family: str | None = None
     difficulty: float | None = None
     world_seed: int | None = None
+    retract: bool = False
 
     @property
     def generated(self) -> bool:
@@ -132,7 +147,10 @@ class TrialSpec:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict (inverse of :meth:`from_dict`)."""
-        return dataclasses.asdict(self)
+        data = dataclasses.asdict(self)
+        if not self.retract:
+            del data["retract"]
+        return data
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> TrialSpec:
@@ -154,6 +172,7 @@ class SweepConfig:
     ``seed``) or ``worlds_dir`` (every ``*.json`` directly in that folder, sorted by name, each run ``count``
     times with different noise seeds). ``difficulties`` are passed to the generator (ignored for
     ``worlds_dir``; there the difficulty is read from the world's ``extra.difficulty`` when present).
+    ``retract`` (generated worlds only): generate worlds the robot must back out of.
     """
 
     families: tuple[str, ...] = ()
@@ -163,6 +182,7 @@ class SweepConfig:
     worlds_dir: str | None = None
     controllers: tuple[str, ...] = ("slither",)
     planners: tuple[str, ...] = ("field",)
+    retract: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "families", tuple(self.families))
@@ -176,6 +196,11 @@ class SweepConfig:
             raise SweepError(f"sweep config: count must be an integer >= 1, got {self.count!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise SweepError(f"sweep config: seed must be an integer >= 0, got {self.seed!r}")
+        if not isinstance(self.retract, bool):
+            raise SweepError(f"sweep config: retract must be true or false, got {self.retract!r}")
+        if self.retract and not self.families:
+            raise SweepError("sweep config: retract applies to generated worlds (--generate); a world file "
+                             "says \"retract\": true itself")
         for name in ("families", "difficulties", "controllers", "planners"):
             values = getattr(self, name)
             if name != "families" and not values:
@@ -210,36 +235,45 @@ def _known_families() -> tuple[str, ...]:
     return family_names()
 
 
-def _world_file_info(path: Path) -> tuple[str | None, float | None]:
-    """(family, difficulty) of a world file, read without full validation (the trial validates)."""
+def _generator_supports_retract(generator: Generator | None = None) -> bool:
+    """Whether ``generator`` (default ``navstack.generate.generate_world``) takes a ``retract`` argument."""
+    import inspect
+
+    if generator is None:
+        from navstack.generate import generate_world as generator
+    return "retract" in inspect.signature(generator).parameters
+
+
+def _world_file_info(path: Path) -> tuple[str | None, float | None, bool]:
+    """(family, difficulty, retract) of a world file, read without validation (the trial validates).
+
+    A file that cannot be read or parsed, or whose fields have other types, gives ``(None, None, False)``: its
+    trials are recorded as ``error`` lines when the sweep reaches them (the rest of the sweep runs)."""
     try:
-        text = path.read_text(encoding="utf-8-sig")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SweepError(f"{path}: cannot read world file: {exc}") from exc
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise SweepError(f"{path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from exc
+        data = json.loads(path.read_text(encoding="utf-8-sig"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        return None, None, False
     if not isinstance(data, dict):
-        raise SweepError(f"{path}: expected a JSON object (a navstack-world/1 file)")
-    family = data.get("family")
-    if family is not None and not isinstance(family, str):
-        raise SweepError(f"{path}: 'family' must be a string, got {family!r}")
+        return None, None, False
+    family = data.get("family") if isinstance(data.get("family"), str) else None
+    retract = data.get("retract") is True
     extra = data.get("extra")
     difficulty = extra.get("difficulty") if isinstance(extra, dict) else None
     if difficulty is None and isinstance(extra, dict) and isinstance(extra.get("generator"), dict):
         difficulty = extra["generator"].get("difficulty")  # a world written by navstack generate
     if isinstance(difficulty, bool) or not isinstance(difficulty, int | float):
         difficulty = None
-    return family, (float(difficulty) if difficulty is not None else None)
+    return family, (float(difficulty) if difficulty is not None else None), retract
 
 
 def build_specs(config: SweepConfig) -> list[TrialSpec]:
     """The deterministic trial list of ``config`` (same config, same list, same ``trial_id`` values).
 
-    Generated: ``trial_id = "<family>__d<difficulty>__<index:04d>__<controller>__<planner>"``.
-    Files: ``trial_id = "<file stem>__<repetition:03d>__<controller>__<planner>"``.
-    Raises :class:`SweepError` for unknown families, an empty / unreadable worlds folder, or colliding ids.
+    Generated: ``trial_id = "<family>__d<difficulty>__<index:04d>__<controller>__<planner>"``, with
+    ``__retract`` after the index when ``config.retract``. Files: ``trial_id = "<file
+    stem>__<repetition:03d>__<controller>__<planner>"``.
+    Raises :class:`SweepError` for unknown families, an empty worlds folder, colliding ids, or ``retract``
+    with a generator that does not support it.
     """
     specs: list[TrialSpec] = []
     if config.families:
@@ -247,19 +281,22 @@ def build_specs(config: SweepConfig) -> list[TrialSpec]:
         for fam in config.families:
             if fam not in known:
                 raise SweepError(f"--generate: unknown world family {fam!r}; expected one of {list(known)}")
+        if config.retract and not _generator_supports_retract():
+            raise SweepError("--retract: this navstack's world generator cannot make retraction worlds yet "
+                             "(navstack.generate.generate_world has no 'retract' argument)")
         for index in range(config.count):
             for fam in config.families:
                 world_seed = derive_seed("world", config.seed, fam, index)
                 trial_seed = derive_seed("trial", config.seed, fam, index)
                 for diff in config.difficulties:
-                    world_id = f"{fam}__d{diff!r}__{index:04d}"
+                    world_id = f"{fam}__d{diff!r}__{index:04d}" + ("__retract" if config.retract else "")
                     for planner in config.planners:
                         for controller in config.controllers:
                             specs.append(TrialSpec(
                                 trial_id=f"{world_id}__{controller}__{planner}", world_id=world_id,
                                 world_file=f"{WORLDS_DIR}/{world_id}.json", controller=controller,
                                 planner=planner, seed=trial_seed, index=index, family=fam,
-                                difficulty=diff, world_seed=world_seed))
+                                difficulty=diff, world_seed=world_seed, retract=config.retract))
     else:
         folder = Path(config.worlds_dir).expanduser().resolve()  # type: ignore[arg-type]
         if not folder.is_dir():
@@ -269,7 +306,7 @@ def build_specs(config: SweepConfig) -> list[TrialSpec]:
             raise SweepError(f"--worlds: no *.json world files in {folder}")
         infos = [(p, *_world_file_info(p)) for p in files]
         for rep in range(config.count):
-            for path, fam, diff in infos:
+            for path, fam, diff, retract in infos:
                 trial_seed = derive_seed("trial", config.seed, path.stem, rep)
                 world_id = path.stem
                 for planner in config.planners:
@@ -277,7 +314,7 @@ def build_specs(config: SweepConfig) -> list[TrialSpec]:
                         specs.append(TrialSpec(
                             trial_id=f"{world_id}__{rep:03d}__{controller}__{planner}", world_id=world_id,
                             world_file=str(path), controller=controller, planner=planner, seed=trial_seed,
-                            index=rep, family=fam, difficulty=diff, world_seed=None))
+                            index=rep, family=fam, difficulty=diff, world_seed=None, retract=retract))
     _check_unique(specs)
     return specs
 
@@ -351,27 +388,6 @@ def read_results(path: str | Path) -> ResultsFile:
     return ResultsFile(path, records, numbers, len(data), False)
 
 
-def _json_ready(obj: Any) -> Any:
-    """Plain JSON data: numpy scalars/arrays to Python, Paths to str, non-finite floats to None."""
-    if isinstance(obj, dict):
-        return {str(k): _json_ready(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_json_ready(v) for v in obj]
-    if isinstance(obj, bool) or obj is None or isinstance(obj, str):
-        return obj
-    if isinstance(obj, int):
-        return int(obj)
-    if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
-    if isinstance(obj, Path):
-        return str(obj)
-    if hasattr(obj, "tolist"):  # numpy scalar / array
-        return _json_ready(obj.tolist())
-    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
-        return _json_ready(dataclasses.asdict(obj))
-    return str(obj)
-
-
 def _encode(record: dict[str, Any]) -> bytes:
     return (json.dumps(record, allow_nan=False, separators=(", ", ": ")) + "\n").encode("utf-8")
 
@@ -413,123 +429,7 @@ def _atomic_write_bytes(path: Path, data: bytes) -> None:
 
 
 # --------------------------------------------------------------------------------------------------------
-# Worker process
-# --------------------------------------------------------------------------------------------------------
-
-
-def _save_world(world: Any, path: Path) -> None:
-    """Write a generated world atomically (``dict`` as JSON, else ``navstack.world.save_world``)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.json")
-    if isinstance(world, dict):
-        tmp.write_text(json.dumps(world, indent=2) + "\n", encoding="utf-8")
-    else:
-        from navstack.world import save_world
-
-        save_world(world, tmp)
-    os.replace(tmp, path)
-
-
-def _result_to_dict(result: Any) -> dict[str, Any]:
-    if isinstance(result, dict):
-        return dict(result)
-    if hasattr(result, "to_dict"):
-        return dict(result.to_dict())
-    if dataclasses.is_dataclass(result) and not isinstance(result, type):
-        return dataclasses.asdict(result)
-    raise TypeError(f"the trial runner returned {type(result).__name__}, expected a dict or a TrialResult")
-
-
-def _run_one(spec: TrialSpec, out_dir: Path, runner: Runner | None, generator: Generator | None,
-             keep_trajectories: bool) -> dict[str, Any]:
-    if runner is None:
-        from navstack.trial import run_trial as runner
-    world_path = out_dir / spec.world_file if spec.generated else Path(spec.world_file)
-    if spec.generated:
-        if generator is None:
-            from navstack.generate import generate_world as generator
-        world = generator(spec.family, seed=spec.world_seed, difficulty=spec.difficulty)
-        _save_world(world, world_path)
-    trial_out = out_dir / "trials" / spec.trial_id if keep_trajectories else None
-    result = runner(str(world_path), controller=spec.controller, planner=spec.planner, seed=spec.seed,
-                    out_dir=trial_out)
-    return _json_ready(_result_to_dict(result))
-
-
-def _parent_watchdog(parent_pid: int) -> None:
-    while True:
-        time.sleep(0.5)
-        if os.getppid() != parent_pid:
-            os._exit(3)
-
-
-def _worker_main(conn: Any, parent_pid: int, out_dir: str, runner: Runner | None,
-                 generator: Generator | None, keep_trajectories: bool, log_path: str | None) -> None:
-    """Worker loop.
-
-    Sends ``("ready",)`` once set up (runner imported), or ``("fatal", msg, tb)`` if it cannot start; then for
-    each received spec dict ``("ok", trial_id, record)`` or ``("fail", trial_id, msg, tb)``.
-    """
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    threading.Thread(target=_parent_watchdog, args=(parent_pid,), daemon=True).start()
-    if log_path is not None:
-        fd = os.open(log_path, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os.dup2(fd, 1)
-        os.dup2(fd, 2)
-        os.close(fd)
-    try:
-        if runner is None:
-            from navstack.trial import run_trial as runner
-    except BaseException as exc:  # noqa: BLE001 - reported to the parent, which stops the sweep
-        with contextlib.suppress(BrokenPipeError, EOFError, OSError):
-            conn.send(("fatal", f"{type(exc).__name__}: {exc}", traceback.format_exc()))
-        return
-    try:
-        conn.send(("ready",))
-    except (BrokenPipeError, EOFError, OSError):
-        return
-    out = Path(out_dir)
-    while True:
-        try:
-            msg = conn.recv()
-        except (EOFError, OSError):
-            return
-        if msg is None:
-            return
-        spec = TrialSpec.from_dict(msg)
-        try:
-            record = _run_one(spec, out, runner, generator, keep_trajectories)
-            reply: tuple[Any, ...] = ("ok", spec.trial_id, record)
-        except BaseException as exc:  # noqa: BLE001 - every failure of a trial is data, not a crash
-            reply = ("fail", spec.trial_id, f"{type(exc).__name__}: {exc}", traceback.format_exc())
-        try:
-            conn.send(reply)
-        except (BrokenPipeError, EOFError, OSError):
-            return
-
-
-@dataclass
-class _Worker:
-    proc: Any
-    conn: Any
-    born: float
-    ready: bool = False
-    spec: TrialSpec | None = None
-    started: float = 0.0
-
-
-class SweepWorkerError(RuntimeError):
-    """A worker process could not start (e.g. the runner cannot be imported); the sweep stops."""
-
-
-STARTUP_TIMEOUT = 300.0
-"""Seconds a new worker may take to import its runner before the sweep gives up (s)."""
-
-
-# --------------------------------------------------------------------------------------------------------
-# Parent
+# Driver
 # --------------------------------------------------------------------------------------------------------
 
 
@@ -566,14 +466,17 @@ def _error_record(spec: TrialSpec, message: str, wall_time: float, tb: str | Non
     }
     if tb:
         rec["traceback"] = tb
+    if spec.retract:
+        rec["retracted"] = False
     return rec
 
 
-def _finish_record(spec: TrialSpec, result: dict[str, Any]) -> dict[str, Any]:
+def _finish_record(spec: TrialSpec, result: dict[str, Any], prov: dict[str, Any]) -> dict[str, Any]:
+    """The results line: the runner's fields, the sweep's fields of ``spec``, and ``provenance`` last."""
     record: dict[str, Any] = {"trial_id": spec.trial_id}
-    record.update({k: v for k, v in result.items() if k != "trial_id"})
+    record.update({k: v for k, v in result.items() if k not in ("trial_id", "provenance")})
     record.update(family=spec.family, difficulty=spec.difficulty, index=spec.index, world_id=spec.world_id,
-                  world_file=spec.world_file, world_seed=spec.world_seed)
+                  world_file=spec.world_file, world_seed=spec.world_seed, provenance=prov)
     return record
 
 
@@ -650,17 +553,6 @@ def _rewrite_sorted(results: Path, specs: Sequence[TrialSpec]) -> None:
         _atomic_write_bytes(results, data)
 
 
-def _resolve_jobs(jobs: int | None) -> int:
-    if jobs is None:
-        try:
-            return max(1, len(os.sched_getaffinity(0)))
-        except AttributeError:  # pragma: no cover - not Linux
-            return max(1, os.cpu_count() or 1)
-    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
-        raise SweepError(f"jobs must be an integer >= 1, got {jobs!r}")
-    return jobs
-
-
 def _check_picklable(name: str, fn: Any) -> None:
     if fn is None:
         return
@@ -678,23 +570,26 @@ class _Interrupted(Exception):
 def run_sweep(specs: Iterable[TrialSpec], out_dir: str | Path, jobs: int | None = None,
               trial_timeout: float | None = DEFAULT_TRIAL_TIMEOUT, runner: Runner | None = None,
               progress: bool = True, *, generator: Generator | None = None, keep_trajectories: bool = False,
-              config: SweepConfig | dict[str, Any] | None = None, command: str | None = None) -> SweepSummary:
-    """Run (or resume) the trials ``specs`` in ``jobs`` worker processes; results go to ``out_dir``.
+              config: SweepConfig | dict[str, Any] | None = None, command: str | None = None,
+              backend: str = "local", ray_address: str | None = None) -> SweepSummary:
+    """Run (or resume) the trials ``specs`` on ``backend``; results go to ``out_dir``.
 
     Parameters
     ----------
     specs: the trial list (usually :func:`build_specs`); stored in ``out_dir/sweep.json`` on the first run and
         compared on every rerun (a different list raises :class:`SweepError`).
-    jobs: worker processes (default: all usable cores); never more than the trials left.
-    trial_timeout: wall-clock limit per trial in seconds (``None``: no limit); a trial over it is killed with
-        its worker and recorded as ``reason: "error"``.
+    jobs: parallel trials (default: all usable cores; for Ray, all the cluster's CPUs).
+    trial_timeout: wall-clock limit per trial in seconds (``None``: no limit), counted from the moment a
+        started worker takes the trial; a trial over it is killed with its worker and recorded as
+        ``reason: "error"``.
     runner: ``runner(world_path, *, controller, planner, seed, out_dir) -> dict | TrialResult`` (default
         ``navstack.trial.run_trial``); must be a picklable top-level function.
     progress: show a tqdm bar (stderr) with done/total, successes and ETA.
     generator: ``generator(family, seed=world_seed, difficulty=d) -> World | dict`` for generated worlds (default
-        ``navstack.generate.generate_world``).
-    keep_trajectories: give each trial ``out_dir/trials/<trial_id>/`` as its output folder.
+        ``navstack.generate.generate_world``); called with ``retract=True`` as well for ``retract`` specs.
+    keep_trajectories: write each trial's output files under ``out_dir/trials/<trial_id>/``.
     config, command: stored in ``sweep.json`` for the record (not compared).
+    backend, ray_address: ``local`` (worker processes here) or ``ray`` (see :mod:`navstack.executors`).
 
     Returns a :class:`SweepSummary`; on Ctrl-C (SIGINT) or SIGTERM it stops the workers, keeps every finished
     line and returns with ``interrupted=True``.
@@ -702,18 +597,23 @@ def run_sweep(specs: Iterable[TrialSpec], out_dir: str | Path, jobs: int | None 
     specs = list(specs)
     _check_unique(specs)
     out = Path(out_dir).expanduser().resolve()
-    n_jobs = _resolve_jobs(jobs)
+    if jobs is not None and (isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1):
+        raise SweepError(f"jobs must be an integer >= 1, got {jobs!r}")
     if trial_timeout is not None and not (isinstance(trial_timeout, int | float) and trial_timeout > 0):
         raise SweepError(f"trial_timeout must be a positive number of seconds or None, got {trial_timeout!r}")
+    if backend not in BACKENDS:
+        raise SweepError(f"--backend: unknown backend {backend!r}; expected one of {list(BACKENDS)}")
     _check_picklable("runner", runner)
     _check_picklable("generator", generator)
     cfg = config.to_dict() if isinstance(config, SweepConfig) else config
     if out.exists() and not out.is_dir():
         raise SweepError(f"--out: {out} exists and is not a directory")
     out.mkdir(parents=True, exist_ok=True)
+    run = _Run(out=out, jobs=jobs, trial_timeout=trial_timeout, runner=runner, generator=generator,
+               keep_trajectories=keep_trajectories, backend=backend, ray_address=ray_address, progress=progress)
     with _exclusive_lock(out):
-        return _sweep_locked(specs, out, n_jobs, trial_timeout, runner, progress, generator,
-                             keep_trajectories, cfg, command)
+        _prepare_dir(out, specs, cfg, command)
+        return run.sweep(specs)
 
 
 @contextlib.contextmanager
@@ -733,168 +633,144 @@ def _exclusive_lock(out: Path) -> Any:
         os.close(fd)
 
 
-def _sweep_locked(specs: list[TrialSpec], out: Path, n_jobs: int, trial_timeout: float | None,
-                  runner: Runner | None, progress: bool, generator: Generator | None, keep_trajectories: bool,
-                  cfg: dict[str, Any] | None, command: str | None) -> SweepSummary:
-    _prepare_dir(out, specs, cfg, command)
-    results = out / RESULTS_NAME
-    done, dropped = _load_done(results, {s.trial_id for s in specs})
-    todo = deque(s for s in specs if s.trial_id not in done)
-    summary = SweepSummary(out_dir=out, results_path=results, total=len(specs), skipped=len(done),
-                           dropped_truncated_line=dropped, recorded=len(done))
-    t0 = time.monotonic()
-    successes = sum(1 for r in done.values() if r.get("success") is True)
-    if todo:
-        _run_pending(todo, out, n_jobs, trial_timeout, runner, generator, keep_trajectories, progress,
-                     summary, successes)
-    summary.wall_time = time.monotonic() - t0
-    if summary.complete and not summary.interrupted:
-        _rewrite_sorted(results, specs)
-    return summary
+def _job(spec: TrialSpec, run: _Run) -> TrialJob | str:
+    """The job of ``spec``, or why it cannot run (an unreadable or syntactically malformed world file)."""
+    from navstack.executors import TrialJob
+
+    text = None
+    if not spec.generated:
+        path = Path(spec.world_file)
+        try:
+            text = path.read_bytes().decode("utf-8")
+        except (OSError, UnicodeDecodeError) as exc:
+            return f"{path}: cannot read world file: {exc}"
+        try:
+            json.loads(text.lstrip("\ufeff"))
+        except json.JSONDecodeError as exc:
+            return f"{path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}"
+    return TrialJob(spec=spec, world_text=text, keep_files=run.keep_trajectories, runner=run.runner,
+                    generator=run.generator)
 
 
-def _run_pending(todo: deque[TrialSpec], out: Path, n_jobs: int, trial_timeout: float | None,
-                 runner: Runner | None, generator: Generator | None, keep_trajectories: bool,
-                 progress: bool, summary: SweepSummary, successes: int) -> None:
-    ctx = mp.get_context("spawn")
-    log_path = str(out / LOG_NAME)
-    writer = _ResultsWriter(summary.results_path)
-    workers: list[_Worker] = []
-    bar = None
-    if progress:
-        from tqdm import tqdm
+@dataclass
+class _Run:
+    """One invocation of :func:`run_sweep`: its options, and the driver loop that is the only writer of ``out``."""
 
-        bar = tqdm(total=summary.total, initial=summary.recorded, unit="trial", dynamic_ncols=True,
-                   desc="trials", file=sys.stderr)
-        bar.set_postfix_str(f"ok {successes}/{summary.recorded}")
+    out: Path
+    jobs: int | None
+    trial_timeout: float | None
+    runner: Runner | None
+    generator: Generator | None
+    keep_trajectories: bool
+    backend: str
+    ray_address: str | None
+    progress: bool
+    bar: Any = None
+    summary: Any = None
+    successes: int = 0
 
-    def start_worker() -> _Worker:
-        parent_conn, child_conn = ctx.Pipe(duplex=True)
-        proc = ctx.Process(target=_worker_main, name="navstack-trial-worker", daemon=True,
-                           args=(child_conn, os.getpid(), str(out), runner, generator, keep_trajectories,
-                                 log_path))
-        proc.start()
-        child_conn.close()
-        return _Worker(proc=proc, conn=parent_conn, born=time.monotonic())
+    def sweep(self, specs: list[TrialSpec]) -> SweepSummary:
+        results = self.out / RESULTS_NAME
+        done, dropped = _load_done(results, {s.trial_id for s in specs})
+        todo = deque(s for s in specs if s.trial_id not in done)
+        self.summary = SweepSummary(out_dir=self.out, results_path=results, total=len(specs), skipped=len(done),
+                                    dropped_truncated_line=dropped, recorded=len(done))
+        t0 = time.monotonic()
+        self.successes = sum(1 for r in done.values() if r.get("success") is True)
+        if todo:
+            self._run_pending(todo, {s.trial_id: i for i, s in enumerate(specs)})
+        self.summary.wall_time = time.monotonic() - t0
+        if self.summary.complete and not self.summary.interrupted:
+            _rewrite_sorted(results, specs)
+        return self.summary
 
-    def stop_worker(w: _Worker, hard: bool) -> None:
-        if hard and w.proc.is_alive():
-            w.proc.kill()
-        w.proc.join(timeout=5.0)
-        if w.proc.is_alive():  # pragma: no cover - ignoring SIGKILL is impossible; belt and braces
-            w.proc.kill()
-            w.proc.join(timeout=5.0)
-        w.conn.close()
+    def _run_pending(self, todo: deque[TrialSpec], order: dict[str, int]) -> None:
+        from navstack.executors import BackendError, make_executor
 
-    def record(spec: TrialSpec, rec: dict[str, Any]) -> None:
-        nonlocal successes
-        writer.append(_finish_record(spec, rec))
-        summary.recorded += 1
-        summary.ran += 1
-        if rec.get("success") is True:
-            summary.succeeded += 1
-            successes += 1
-        if rec.get("reason") == "error":
-            summary.errors += 1
-            summary.error_ids.append(spec.trial_id)
-        if bar is not None:
-            bar.set_postfix_str(f"ok {successes}/{summary.recorded}" + (
-                f", errors {summary.errors}" if summary.errors else ""), refresh=False)
-            bar.update(1)
+        try:
+            executor = make_executor(self.backend, jobs=self.jobs, runner=self.runner,
+                                     log_path=str(self.out / LOG_NAME), ray_address=self.ray_address)
+        except BackendError as exc:
+            raise SweepError(str(exc)) from exc
+        writer = _ResultsWriter(self.summary.results_path)
+        if self.progress:
+            from tqdm import tqdm
 
-    def on_sigterm(signum: int, frame: Any) -> None:
-        raise _Interrupted()
-
-    old_term = None
-    if threading.current_thread() is threading.main_thread():
-        old_term = signal.signal(signal.SIGTERM, on_sigterm)
-    try:
-        workers = [start_worker() for _ in range(min(n_jobs, len(todo)))]
-        while todo or any(w.spec is not None for w in workers):
-            for w in list(workers):
-                if w.ready and w.spec is None and todo:
+            self.bar = tqdm(total=self.summary.total, initial=self.summary.recorded, unit="trial",
+                            dynamic_ncols=True, desc="trials", file=sys.stderr)
+            self.bar.set_postfix_str(f"ok {self.successes}/{self.summary.recorded}")
+        old_term = None
+        if threading.current_thread() is threading.main_thread():
+            old_term = signal.signal(signal.SIGTERM, _on_sigterm)
+        pending: dict[cf.Future[Any], TrialSpec] = {}
+        cancel = True
+        try:
+            while todo or pending:
+                while todo and len(pending) < executor.capacity():
                     spec = todo.popleft()
-                    try:
-                        w.conn.send(spec.to_dict())
-                    except (BrokenPipeError, EOFError, OSError):  # idle worker died: replace it
-                        todo.appendleft(spec)
-                        stop_worker(w, hard=True)
-                        workers.remove(w)
-                        workers.append(start_worker())
-                        continue
-                    w.spec, w.started = spec, time.monotonic()
-            now = time.monotonic()
-            watched = [w for w in workers if w.spec is not None or not w.ready]
-            deadlines = [w.started + trial_timeout for w in watched if w.spec is not None
-                         and trial_timeout is not None] + [w.born + STARTUP_TIMEOUT for w in watched
-                                                          if not w.ready]
-            wait_for = min([1.0] + [max(0.0, t - now) for t in deadlines])
-            mp_wait([w.conn for w in watched] + [w.proc.sentinel for w in watched], timeout=wait_for)
-            for w in list(workers):
-                if w.spec is None and w.ready:
-                    continue
-                msg = None
-                try:
-                    if w.conn.poll():
-                        msg = w.conn.recv()
-                except (EOFError, OSError):
-                    msg = None
-                now = time.monotonic()
-                if not w.ready:
-                    if msg is not None and msg[0] == "ready":
-                        w.ready = True
-                        continue
-                    if msg is not None and msg[0] == "fatal":
-                        raise SweepWorkerError(f"a worker process could not start: {msg[1]}\n{msg[2]}")
-                    if not w.proc.is_alive():
-                        raise SweepWorkerError(f"a worker process died while starting (exit code "
-                                               f"{w.proc.exitcode}); see the messages above or {log_path}")
-                    if now - w.born > STARTUP_TIMEOUT:
-                        raise SweepWorkerError(f"a worker process did not start within {STARTUP_TIMEOUT:g} s; "
-                                               f"see {log_path}")
-                    continue
-                spec = w.spec
-                assert spec is not None
-                elapsed = now - w.started
-                if msg is not None:
-                    w.spec = None
-                    if msg[0] == "ok":
-                        try:
-                            rec = _validated_result(spec, msg[2])
-                        except TypeError as exc:
-                            rec = _error_record(spec, str(exc), elapsed)
+                    job = _job(spec, self)
+                    if isinstance(job, str):
+                        self._record(writer, spec, error_reply(job, 0.0), executor.backend)
                     else:
-                        rec = _error_record(spec, msg[2], elapsed, msg[3])
-                    record(spec, rec)
-                    continue
-                if w.proc.is_alive():
-                    if trial_timeout is None or elapsed <= trial_timeout:
-                        continue
-                    why = f"trial exceeded the {trial_timeout:g} s wall-clock limit; worker killed"
-                else:
-                    why = f"worker process died (exit code {w.proc.exitcode}) while running the trial"
-                stop_worker(w, hard=True)
-                workers.remove(w)
-                if todo:
-                    workers.append(start_worker())
-                record(spec, _error_record(spec, why, elapsed))
-        for w in workers:
-            with contextlib.suppress(BrokenPipeError, EOFError, OSError):
-                w.conn.send(None)
-        for w in workers:
-            stop_worker(w, hard=False)
-        workers = []
-    except (KeyboardInterrupt, _Interrupted):
-        summary.interrupted = True
-    finally:
-        for w in workers:
-            with contextlib.suppress(Exception):
-                stop_worker(w, hard=True)
-        writer.close()
-        if bar is not None:
-            bar.close()
-        if old_term is not None:
-            signal.signal(signal.SIGTERM, old_term)
+                        pending[executor.submit(job, self.trial_timeout)] = spec
+                if pending:
+                    finished, _ = cf.wait(pending, timeout=1.0, return_when=cf.FIRST_COMPLETED)
+                    executor.check()
+                    for fut in sorted(finished, key=lambda f: order[pending[f].trial_id]):
+                        self._record(writer, pending.pop(fut), fut.result(), executor.backend)
+            cancel = False
+        except (KeyboardInterrupt, _Interrupted):
+            self.summary.interrupted = True
+        finally:
+            executor.close(cancel=cancel)
+            writer.close()
+            if self.bar is not None:
+                self.bar.close()
+            if old_term is not None:
+                signal.signal(signal.SIGTERM, old_term)
+
+    def _record(self, writer: _ResultsWriter, spec: TrialSpec, reply: dict[str, Any], backend: str) -> None:
+        """Write what a worker returned: the generated world, the trial's files, then its results line."""
+        if reply.get("world_json") and spec.generated:
+            _write_if_changed(self.out / spec.world_file, reply["world_json"].encode("utf-8"))
+        for rel, data in (reply.get("files") or {}).items():
+            path = self.out / "trials" / spec.trial_id / rel
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_bytes(data)
+        result = reply.get("result")
+        if result is None:
+            rec = _error_record(spec, reply["error"], reply["wall_time"], reply.get("traceback"))
+        else:
+            try:
+                rec = _validated_result(spec, result)
+            except TypeError as exc:
+                rec = _error_record(spec, str(exc), reply["wall_time"])
+        writer.append(_finish_record(spec, rec, {**reply["provenance"], "backend": backend}))
+        s = self.summary
+        s.recorded += 1
+        s.ran += 1
+        if rec.get("success") is True:
+            s.succeeded += 1
+            self.successes += 1
+        if rec.get("reason") == "error":
+            s.errors += 1
+            s.error_ids.append(spec.trial_id)
+        if self.bar is not None:
+            self.bar.set_postfix_str(f"ok {self.successes}/{s.recorded}"
+                                     + (f", errors {s.errors}" if s.errors else ""), refresh=False)
+            self.bar.update(1)
+
+
+def _on_sigterm(signum: int, frame: Any) -> None:
+    raise _Interrupted()
+
+
+def _write_if_changed(path: Path, data: bytes) -> None:
+    with contextlib.suppress(OSError):
+        if path.read_bytes() == data:
+            return
+    path.parent.mkdir(parents=True, exist_ok=True)
+    _atomic_write_bytes(path, data)
 
 
 # --------------------------------------------------------------------------------------------------------
@@ -920,7 +796,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="controller to run (repeatable; default slither)")
     parser.add_argument("--planner", action="append", choices=tuple(PLANNERS), default=None,
                         help="planner to run (repeatable; default field)")
-    parser.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
+    parser.add_argument("--retract", action="store_true",
+                        help="generate worlds the robot must back out of after the last goal (--generate only)")
+    parser.add_argument("--jobs", type=int, default=None,
+                        help="trials at once (default: all cores; with --backend ray, the cluster's CPUs)")
+    parser.add_argument("--backend", choices=BACKENDS, default="local",
+                        help="local: worker processes on this machine (default); ray: Ray tasks "
+                             "(needs pip install 'navstack[ray]')")
+    parser.add_argument("--ray-address", metavar="ADDR", default=None,
+                        help="Ray cluster to use with --backend ray (default: $RAY_ADDRESS, else a new Ray "
+                             "instance on this machine)")
     parser.add_argument("--trial-timeout", type=float, default=DEFAULT_TRIAL_TIMEOUT, metavar="SEC",
                         help=f"wall-clock limit per trial, s (default {DEFAULT_TRIAL_TIMEOUT:g}; 0 = none)")
     parser.add_argument("--keep-trajectories", action="store_true",
@@ -933,10 +818,15 @@ def config_from_args(args: argparse.Namespace) -> SweepConfig:
     """The :class:`SweepConfig` described by parsed ``navstack trials`` arguments."""
     if args.worlds is not None and args.difficulty is not None:
         raise SweepError("--difficulty only applies to --generate (world files carry their own)")
+    if args.worlds is not None and args.retract:
+        raise SweepError("--retract only applies to --generate (a world file says \"retract\": true itself)")
+    if args.ray_address is not None and args.backend != "ray":
+        raise SweepError("--ray-address only applies to --backend ray")
     return SweepConfig(
         families=tuple(args.generate or ()), count=args.count, seed=args.seed,
         difficulties=tuple(args.difficulty) if args.difficulty else (0.5,), worlds_dir=args.worlds,
-        controllers=tuple(args.controller or ("slither",)), planners=tuple(args.planner or ("field",)))
+        controllers=tuple(args.controller or ("slither",)), planners=tuple(args.planner or ("field",)),
+        retract=bool(args.retract))
 
 
 def run_from_args(args: argparse.Namespace, argv: Sequence[str] | None = None) -> int:
@@ -952,7 +842,8 @@ def run_from_args(args: argparse.Namespace, argv: Sequence[str] | None = None) -
         summary = run_sweep(specs, args.out, jobs=args.jobs,
                             trial_timeout=args.trial_timeout if args.trial_timeout > 0 else None,
                             progress=not args.no_progress, keep_trajectories=args.keep_trajectories,
-                            config=config, command=command)
+                            config=config, command=command, backend=args.backend,
+                            ray_address=args.ray_address)
     except SweepError as exc:
         print(f"navstack trials: error: {exc}", file=sys.stderr)
         return 2

@@ -1,6 +1,12 @@
 """A tiny real sweep end to end through the CLI: 6 closed-loop trials (3 generated families x slither /
 tip-only, field planner), interrupted with Ctrl-C (SIGINT) and resumed, then reported; the report's success
-rates are recomputed from results.jsonl."""
+rates are recomputed from results.jsonl.
+
+The first run is ``navstack trials`` with one change: its runner is :func:`gated_run_trial`, the real trial
+that, outside the truss family, first waits for a gate file the test never creates. So the Ctrl-C always
+comes after exactly the two truss trials and before any other, however fast or slow the machine is. The
+resume is the plain command.
+"""
 
 from __future__ import annotations
 
@@ -15,6 +21,9 @@ from pathlib import Path
 
 import pytest
 
+GATE_ENV = "NAVSTACK_TEST_GATE"
+HANG_GUARD = 900.0
+"""Seconds after which the test gives up waiting instead of hanging CI (never reached on a working sweep)."""
 FIELDS = {"world", "seed", "controller", "planner", "success", "reason", "goals_reached", "sim_time", "steps",
           "wall_time", "metrics", "family", "difficulty", "trial_id"}
 METRICS = {"tip_error_max", "slither_deviation_max", "min_clearance", "contacts"}
@@ -24,6 +33,27 @@ def _trials_cmd(out: Path) -> list[str]:
     return [sys.executable, "-m", "navstack.cli", "trials", "--generate", "truss", "pipe-rack", "sphere-field",
             "--count", "1", "--seed", "7", "--controller", "slither", "--controller", "tip-only", "--jobs", "2",
             "--no-progress", "--out", str(out)]
+
+
+def gated_run_trial(world, **kwargs):
+    """``navstack.trial.run_trial``, but a world outside the truss family waits for ``$NAVSTACK_TEST_GATE``."""
+    from navstack.trial import run_trial
+
+    if json.loads(Path(world).read_text()).get("family") != "truss":
+        gate = Path(os.environ[GATE_ENV])
+        while not gate.exists():
+            time.sleep(0.05)
+    return run_trial(world, **kwargs)
+
+
+GATED_CLI = """
+import functools, sys
+sys.path.insert(0, {tests!r})
+from test_end_to_end import gated_run_trial
+from navstack import cli, sweep
+sweep.run_sweep = functools.partial(sweep.run_sweep, runner=gated_run_trial)
+sys.exit(cli.main({argv!r}))
+"""
 
 
 def _lines(path: Path) -> list[dict]:
@@ -44,20 +74,23 @@ def _wilson(k: int, n: int) -> tuple[float, float]:
 def test_tiny_sweep_interrupted_resumed_and_reported(tmp_path: Path) -> None:
     out = tmp_path / "sweep"
     results = out / "results.jsonl"
-    env = dict(os.environ, MPLBACKEND="Agg")
-    proc = subprocess.Popen(_trials_cmd(out), env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                            start_new_session=True)
-    deadline = time.monotonic() + 300
-    while len(_lines(results)) < 1 and proc.poll() is None and time.monotonic() < deadline:
+    env = dict(os.environ, MPLBACKEND="Agg", **{GATE_ENV: str(tmp_path / "never")})
+    script = GATED_CLI.format(tests=str(Path(__file__).resolve().parent), argv=_trials_cmd(out)[3:])
+    proc = subprocess.Popen([sys.executable, "-c", script], env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    deadline = time.monotonic() + HANG_GUARD
+    while len(_lines(results)) < 2 and proc.poll() is None:
+        assert time.monotonic() < deadline, "gave up waiting for the two truss trials"
         time.sleep(0.2)
     assert proc.poll() is None, f"the sweep ended before it could be interrupted:\n{proc.communicate()[0]}"
     os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C in a terminal reaches the whole process group
-    text = proc.communicate(timeout=120)[0]
+    text = proc.communicate(timeout=HANG_GUARD)[0]
     before = _lines(results)
-    print(f"\ninterrupted after {len(before)} of 6 trials (exit {proc.returncode})")
-    assert 1 <= len(before) < 6, text
+    assert proc.returncode == 130, text
+    assert sorted(r["trial_id"] for r in before) == ["truss__d0.5__0000__slither__field",
+                                                     "truss__d0.5__0000__tip-only__field"], text
 
-    done = subprocess.run(_trials_cmd(out), env=env, capture_output=True, text=True, timeout=600)
+    done = subprocess.run(_trials_cmd(out), env=env, capture_output=True, text=True, timeout=HANG_GUARD)
     assert done.returncode == 0, done.stdout + done.stderr
     after = _lines(results)
     ids = [r["trial_id"] for r in after]
@@ -71,9 +104,12 @@ def test_tiny_sweep_interrupted_resumed_and_reported(tmp_path: Path) -> None:
             "reached", "collision", "timeout", "stalled", "joint_limit", "error")
         assert r["success"] == (r["reason"] == "reached")
     assert {r["family"] for r in after} == {"truss", "pipe-rack", "sphere-field"}
+    assert {r["provenance"]["backend"] for r in after} == {"local"}
+    for r in after:  # the driver wrote every generated world
+        assert json.loads((out / r["world_file"]).read_text())["family"] == r["family"]
 
     rep = subprocess.run([sys.executable, "-m", "navstack.cli", "report", str(out)], env=env, capture_output=True,
-                         text=True, timeout=300)
+                         text=True, timeout=HANG_GUARD)
     assert rep.returncode == 0, rep.stdout + rep.stderr
     report = (out / "report.md").read_text()
     section = report.split("## Success rate per controller", 1)[1].split("\n## ", 1)[0]

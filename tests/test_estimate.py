@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from navstack.estimate import EstimatorConfig, RangeEstimator
-from navstack.sensing import SensorConfig, frame_from_direction, make_reading, ray_directions
+from navstack.sensing import SensorConfig, SensorReading, frame_from_direction, make_reading, ray_directions
 
 WALL_X = 0.5  # the wall is the plane x = WALL_X
 
@@ -161,3 +161,267 @@ def test_bad_inputs_raise_clear_errors():
         EstimatorConfig(measurement_std=-1.0)
     with pytest.raises(ValueError, match="max_coast"):
         EstimatorConfig(max_coast=1.5)
+
+
+# ---------------------------------------------------------------------- against an independent reference
+class _ReferenceFilter:
+    """The estimator as its module docstring documents it, built here from filterpy's plain KalmanFilter.
+
+    Per ray: state [r, b]; F = [[1, dt], [0, 1]], B = [[dt], [0]], H = [[1, 0]], input u = -v . d;
+    Q the discrete white-noise model written out (var * [[dt^4/4, dt^3/2], [dt^3/2, dt^2]], var =
+    rate_process_std^2); R = measurement_std^2 (floor 1e-4 m). A hit starts a track at [z, 0] with
+    P = diag(R, initial_rate_std^2); a valid miss stops it; a dropout predicts only, and more than
+    max_coast in a row drop the track; a hit whose innovation exceeds gate_sigma standard deviations of the
+    innovation (predicted range variance plus R) restarts the track at the measurement.
+    """
+
+    def __init__(self, n: int, cfg: EstimatorConfig):
+        from filterpy.kalman import KalmanFilter
+
+        self.cfg = cfg
+        self.R = max(cfg.measurement_std, 1e-4) ** 2
+        self.kfs = []
+        for _ in range(n):
+            kf = KalmanFilter(dim_x=2, dim_z=1, dim_u=1)
+            kf.H = np.array([[1.0, 0.0]])
+            kf.R = np.array([[self.R]])
+            self.kfs.append(kf)
+        self.tracking = np.zeros(n, bool)
+        self.coast = np.zeros(n, int)
+        self.last_origin = None
+        self.resets = 0
+        self.innovation_var = np.full(n, np.nan)  # of the last gated hit, per ray
+
+    def _start(self, i, z):
+        self.kfs[i].x = np.array([[z], [0.0]])
+        self.kfs[i].P = np.diag([self.R, self.cfg.initial_rate_std**2])
+        self.tracking[i], self.coast[i] = True, 0
+
+    def update(self, reading, dt, v=None):
+        o = reading.origins[0]
+        if v is None:
+            v = np.zeros(3) if self.last_origin is None else (o - self.last_origin) / dt
+        self.last_origin = np.array(o)
+        F = np.array([[1.0, dt], [0.0, 1.0]])
+        B = np.array([[dt], [0.0]])
+        var = self.cfg.rate_process_std**2
+        Q = var * np.array([[dt**4 / 4, dt**3 / 2], [dt**3 / 2, dt**2]])
+        for i, kf in enumerate(self.kfs):
+            if not self.tracking[i]:
+                if reading.hit[i]:
+                    self._start(i, reading.ranges[i])
+                continue
+            if reading.valid[i] and not reading.hit[i]:
+                self.tracking[i] = False
+                continue
+            kf.predict(u=np.array([[-(reading.directions[i] @ v)]]), B=B, F=F, Q=Q)
+            kf.x[0, 0] = max(kf.x[0, 0], 0.0)
+            if not reading.valid[i]:
+                self.coast[i] += 1
+                self.tracking[i] = self.coast[i] <= self.cfg.max_coast
+                continue
+            s = kf.P[0, 0] + self.R
+            self.innovation_var[i] = s
+            if (reading.ranges[i] - kf.x[0, 0]) ** 2 > self.cfg.gate_sigma**2 * s:
+                self.resets += 1
+                self._start(i, reading.ranges[i])
+                continue
+            kf.update(reading.ranges[i])
+            self.coast[i] = 0
+        t = self.tracking
+        x = np.array([kf.x[:, 0] for kf in self.kfs])
+        std = np.sqrt([kf.P[0, 0] for kf in self.kfs])
+        return np.where(t, x[:, 0], np.nan), np.where(t, x[:, 1], np.nan), np.where(t, std, np.nan)
+
+
+def _plane_readings(n_steps: int, seed: int, noise: float, dropout: float, dt: float = 0.05):
+    """Readings of 5 rays from a tip crossing a tilted plane, with a step in the plane (an edge) halfway."""
+    rng = np.random.default_rng(seed)
+    dirs = np.array([[1.0, 0, 0], [0.9, 0.3, 0], [0.9, -0.3, 0.1], [0.8, 0, 0.5], [0.0, 1.0, 0.0]])
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    normal = np.array([1.0, 0.2, 0.1]) / np.linalg.norm([1.0, 0.2, 0.1])
+    out = []
+    for k in range(n_steps):
+        v = np.array([0.04, 0.01 * np.cos(0.3 * k * dt), -0.005])
+        origin = v * k * dt
+        offset = 0.35 if k < n_steps // 2 else 0.25  # the surface ahead steps 10 cm closer: gate resets
+        true = (offset - normal @ origin) / (dirs @ normal)
+        hit = (true > 0) & (true < 0.4)
+        valid = rng.random(5) >= dropout
+        ranges = np.where(hit, true + noise * rng.standard_normal(5), 0.4)
+        ranges = np.where(valid, ranges, np.nan)
+        reading = SensorReading(np.tile(origin, (5, 1)), dirs, ranges, hit & valid, valid, 0.4)
+        out.append((reading, v))
+    return out
+
+
+@pytest.mark.parametrize("velocity_given", [True, False])
+@pytest.mark.parametrize("cfg", [
+    EstimatorConfig(),
+    EstimatorConfig(measurement_std=0.002, rate_process_std=0.3, initial_rate_std=0.2, gate_sigma=3.0, max_coast=2),
+], ids=["defaults", "other"])
+def test_filter_matches_an_independent_filterpy_reference(cfg, velocity_given):
+    """Same readings into the estimator and the reference: same ranges, rates, posterior stds, tracks, resets."""
+    est, ref = RangeEstimator(5, cfg), _ReferenceFilter(5, cfg)
+    steps = _plane_readings(160, seed=11, noise=cfg.measurement_std, dropout=0.15)
+    for k, (reading, v) in enumerate(steps):
+        out = est.update(reading, 0.05, v if velocity_given else None)
+        r, b, std = ref.update(reading, 0.05, v if velocity_given else None)
+        np.testing.assert_array_equal(out.tracking, ref.tracking, err_msg=f"step {k}")
+        np.testing.assert_allclose(out.ranges, r, rtol=0, atol=1e-9, equal_nan=True, err_msg=f"step {k}")
+        np.testing.assert_allclose(out.rates, b, rtol=0, atol=1e-7, equal_nan=True, err_msg=f"step {k}")
+        np.testing.assert_allclose(out.range_std, std, rtol=1e-6, atol=0, equal_nan=True, err_msg=f"step {k}")
+    print(f"\n{est.n_resets} gate resets, reference {ref.resets}")
+    assert est.n_resets == ref.resets and 1 <= ref.resets <= 8  # the edge resets tracks; noise does not
+
+
+def _settled_track(cfg: EstimatorConfig, z: float = 0.3, n: int = 40):
+    """An estimator and a reference that tracked a still surface at ``z`` for ``n`` exact readings."""
+    est, ref = RangeEstimator(1, cfg), _ReferenceFilter(1, cfg)
+    for _ in range(n):
+        est.update(_single_ray_reading(z), 0.05, np.zeros(3))
+        ref.update(_single_ray_reading(z), 0.05, np.zeros(3))
+    return est, ref
+
+
+@pytest.mark.parametrize("sigmas, resets", [(3.9, 0), (4.1, 1)])
+def test_the_gate_is_on_the_innovation_std_including_measurement_noise(sigmas, resets):
+    """A settled track's predicted range is far surer than one reading (P << R): the gate must count R.
+    A jump of 3.9 innovation sigmas is filtered in, 4.1 sigmas restarts the track."""
+    cfg = EstimatorConfig(measurement_std=0.004)
+    est, ref = _settled_track(cfg)
+    dt, P = 0.05, ref.kfs[0].P
+    F = np.array([[1.0, dt], [0.0, 1.0]])
+    Q = cfg.rate_process_std**2 * np.array([[dt**4 / 4, dt**3 / 2], [dt**3 / 2, dt**2]])
+    s = (F @ P @ F.T + Q)[0, 0] + cfg.measurement_std**2  # the next innovation's variance
+    assert s < 1.5 * cfg.measurement_std**2  # P < R / 2: a gate on P alone would be ~1.8x tighter
+    z = 0.3 + sigmas * np.sqrt(s)
+    out = est.update(_single_ray_reading(z), 0.05, np.zeros(3))
+    assert est.n_resets == resets
+    if resets:
+        assert out.ranges[0] == pytest.approx(z, abs=1e-12)
+    else:
+        assert 0.3 < out.ranges[0] < z - 0.5 * (z - 0.3)  # pulled a little toward the reading, not restarted
+
+
+def test_process_noise_sets_how_fast_the_rate_follows():
+    """A surface that starts receding at 5 cm/s: the rate state b converges at the speed Q allows.
+    After 0.25 s the default filter's b is 0.47 of the true rate (a filter with ten times the process noise
+    variance is at 0.85, one with a tenth at 0.20)."""
+    cfg = EstimatorConfig(measurement_std=0.004)
+    rates = {}
+    for name, c in (("default", cfg), ("x10", EstimatorConfig(measurement_std=0.004,
+                                                             rate_process_std=cfg.rate_process_std * 10**0.5)),
+                    ("x0.1", EstimatorConfig(measurement_std=0.004, rate_process_std=cfg.rate_process_std / 10**0.5))):
+        est, _ = _settled_track(c)
+        for k in range(1, 6):
+            out = est.update(_single_ray_reading(0.3 + 0.05 * 0.05 * k), 0.05, np.zeros(3))
+        rates[name] = out.rates[0] / 0.05
+    print(f"\nrate state after 0.25 s, as a fraction of the true rate: {rates}")
+    assert 0.35 < rates["default"] < 0.6
+    assert rates["x10"] > 0.75 and rates["x0.1"] < 0.3
+
+
+def test_points_are_origin_plus_filtered_range_along_each_ray():
+    """From a tip away from the world origin: tracked and measured points, coasting rays included."""
+    origin = np.array([0.4, -0.2, 1.1])
+    dirs = np.array([[1.0, 0, 0], [0, 1.0, 0], [0, 0.6, 0.8]])
+
+    def reading(ranges, valid):
+        ranges = np.asarray(ranges, dtype=np.float64)
+        valid = np.asarray(valid)
+        hit = valid & (ranges < 0.4)
+        return SensorReading(np.tile(origin, (3, 1)), dirs, np.where(valid, ranges, np.nan), hit, valid, 0.4)
+
+    est = RangeEstimator(3, EstimatorConfig(measurement_std=0.004))
+    est.update(reading([0.25, 0.3, 0.4], [True, True, True]), 0.05, np.zeros(3))
+    out = est.update(reading([0.25, 0.3, 0.4], [True, False, True]), 0.05, np.zeros(3))  # ray 1 coasts
+    assert out.tracking.tolist() == [True, True, False] and out.measured.tolist() == [True, False, False]
+    np.testing.assert_allclose(out.points, origin + np.array([[0.25, 0, 0], [0, 0.3, 0]]), atol=1e-12)
+    np.testing.assert_allclose(out.measured_points, [origin + [0.25, 0, 0]], atol=1e-12)
+
+
+def test_max_coast_zero_is_allowed_and_negative_is_not():
+    assert EstimatorConfig(max_coast=0).max_coast == 0
+    with pytest.raises(ValueError, match="max_coast"):
+        EstimatorConfig(max_coast=-1)
+    est = RangeEstimator(1, EstimatorConfig(max_coast=0))
+    est.update(_single_ray_reading(0.3), 0.05, np.zeros(3))
+    assert not est.update(_single_ray_reading(None, valid=False), 0.05, np.zeros(3)).tracking[0]  # no coasting
+
+
+@pytest.mark.parametrize("sensor", [True, "5", 5.0, None])
+def test_the_sensor_argument_is_a_sensor_config_or_a_ray_count(sensor):
+    with pytest.raises(TypeError, match="SensorConfig or a number of rays"):
+        RangeEstimator(sensor)
+
+
+def test_reset_forgets_every_track():
+    est = RangeEstimator(1, EstimatorConfig(measurement_std=0.004))
+    for _ in range(5):
+        est.update(_single_ray_reading(0.3), 0.05, np.zeros(3))
+    est.reset()
+    out = est.update(_single_ray_reading(0.2), 0.05, np.zeros(3))  # a new track at the reading, no gate reset
+    assert est.n_resets == 0 and out.ranges[0] == 0.2 and out.range_std[0] == pytest.approx(0.004)
+    est.reset()
+    out = est.update(_single_ray_reading(None, valid=False), 0.05, np.zeros(3))
+    assert not out.tracking[0]  # nothing left to coast
+
+
+def test_config_accepts_any_positive_gate_and_estimates_are_frozen():
+    import dataclasses
+
+    assert EstimatorConfig(gate_sigma=0.5).gate_sigma == 0.5  # tight, but a gate
+    out = RangeEstimator(1).update(_single_ray_reading(0.3), 0.05, np.zeros(3))
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        out.ranges = np.zeros(1)
+
+
+def test_readings_of_the_wrong_size_and_short_velocities_are_refused():
+    three = SensorReading(np.zeros((3, 3)), np.eye(3), np.full(3, 0.3), np.ones(3, bool), np.ones(3, bool), 0.4)
+    with pytest.raises(ValueError, match="reading has 3 rays, the estimator was built for 1"):
+        RangeEstimator(1).update(three, 0.05)
+    with pytest.raises(ValueError, match="tip_velocity"):
+        RangeEstimator(1).update(_single_ray_reading(0.3), 0.05, [0.1, 0.0])
+
+
+def test_by_default_a_track_coasts_through_five_dropouts():
+    """The documented default (max_coast 5): five dropouts in a row are bridged, the sixth drops the track."""
+    est = RangeEstimator(1, EstimatorConfig(measurement_std=0.004))
+    est.update(_single_ray_reading(0.3), 0.05, np.zeros(3))
+    for k in range(5):
+        assert est.update(_single_ray_reading(None, valid=False), 0.05, np.zeros(3)).tracking[0], k
+    assert not est.update(_single_ray_reading(None, valid=False), 0.05, np.zeros(3)).tracking[0]
+
+
+def test_an_exact_sensor_still_gets_a_proper_filter():
+    """measurement_std 0 (an exact sensor) is floored at 0.1 mm, so the filter's variances stay positive."""
+    est = RangeEstimator(1, EstimatorConfig(measurement_std=0.0))
+    out = est.update(_single_ray_reading(0.3), 0.05, np.zeros(3))
+    assert out.range_std[0] == pytest.approx(1e-4)
+    for _ in range(20):
+        out = est.update(_single_ray_reading(0.3), 0.05, np.zeros(3))
+    assert 0.0 < out.range_std[0] < 1e-4 and out.ranges[0] == pytest.approx(0.3, abs=1e-9)
+
+
+@pytest.mark.parametrize("field", ["measurement_std", "rate_process_std", "initial_rate_std", "gate_sigma"])
+@pytest.mark.parametrize("value", [True, "0.1", None])
+def test_config_numbers_must_be_numbers(field, value):
+    import dataclasses
+
+    with pytest.raises(ValueError, match=f"EstimatorConfig.{field} must be a number"):
+        EstimatorConfig(**{field: value})
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        EstimatorConfig().gate_sigma = 1.0
+
+
+@pytest.mark.parametrize("dt", [True, float("nan"), float("inf"), -0.05, 0.0, "0.05"])
+def test_dt_must_be_a_positive_finite_number(dt):
+    with pytest.raises(ValueError, match="dt must be a positive number of seconds"):
+        RangeEstimator(1).update(_single_ray_reading(0.3), dt, np.zeros(3))
+
+
+@pytest.mark.parametrize("v", [[0.1, 0.0], [0.1, 0.0, 0.0, 0.0], [[0.1], [0.0], [0.0]], [0.0, np.inf, 0.0]])
+def test_tip_velocity_must_be_three_finite_numbers(v):
+    with pytest.raises(ValueError, match="tip_velocity must be 3 finite numbers"):
+        RangeEstimator(1).update(_single_ray_reading(0.3), 0.05, v)

@@ -20,6 +20,7 @@ from __future__ import annotations
 import ast
 import dataclasses
 import importlib
+import importlib.util
 import inspect
 import re
 from pathlib import Path
@@ -125,9 +126,14 @@ def scan(files: list[Path], pkg: Path = PKG) -> list[str]:
 
 
 # ---------------------------------------------------------------------------- 1. imports
-def test_core_modules_exist():
-    for name in ("estimate", "sensing", "kinematics"):
-        assert (PKG / f"{name}.py").is_file(), name
+@pytest.mark.parametrize("module", CORE)
+def test_core_modules_exist(module):
+    """A deleted or renamed core module fails here (and in the scans below); it is never skipped."""
+    assert _module_file(f"navstack.{module}", PKG) is not None, f"navstack/{module} is missing"
+    assert importlib.util.find_spec(f"navstack.{module}") is not None
+
+
+def test_the_planner_package_keeps_its_parts():
     for name in ("map", "potential", "search", "steering", "escape", "field"):
         assert (PKG / "planner" / f"{name}.py").is_file(), f"planner/{name}"
 
@@ -192,13 +198,8 @@ def _classes():
 
 @pytest.mark.parametrize(("module", "cls_name"), _classes())
 def test_constructors_take_no_world_or_obstacles(module, cls_name):
-    try:
-        mod = importlib.import_module(module)
-    except ModuleNotFoundError:
-        pytest.skip(f"{module} does not exist yet")
-    cls = getattr(mod, cls_name, None)
-    if cls is None:
-        pytest.skip(f"{module}.{cls_name} does not exist yet")
+    cls = getattr(importlib.import_module(module), cls_name, None)
+    assert cls is not None, f"{module}.{cls_name} is missing"
     params = list(inspect.signature(cls).parameters.values())
     for prm in params:
         assert prm.kind not in (prm.VAR_POSITIONAL, prm.VAR_KEYWORD), f"{cls_name}(*{prm.name}) is open"
@@ -212,20 +213,16 @@ def test_constructors_take_no_world_or_obstacles(module, cls_name):
 
 @pytest.fixture(scope="module")
 def a_world():
-    """A real navstack World with obstacles (or a stand-in if world.py cannot build one)."""
-    try:
-        from navstack.world import world_from_dict
+    """A real navstack World with an obstacle (if world.py cannot build one, these tests error)."""
+    from navstack.world import World, world_from_dict
 
-        return world_from_dict({
-            "format": "navstack-world/1", "name": "isolation", "robot": {},
-            "obstacles": [{"type": "sphere", "center": [1.0, 0.0, 1.8], "radius": 0.1}],
-            "goals": [{"position": [0.9, 0.0, 1.9]}],
-        })
-    except Exception:  # noqa: BLE001 - any failure: fall back to a stand-in object
-        class StandIn:
-            obstacles = ({"type": "sphere", "center": [1.0, 0.0, 1.8], "radius": 0.1},)
-
-        return StandIn()
+    world = world_from_dict({
+        "format": "navstack-world/1", "name": "isolation", "robot": {},
+        "obstacles": [{"type": "sphere", "center": [1.0, 0.0, 1.8], "radius": 0.1}],
+        "goals": [{"position": [0.9, 0.0, 1.9]}],
+    })
+    assert isinstance(world, World) and len(world.obstacles) == 1
+    return world
 
 
 def test_planner_rejects_a_world(a_world):
@@ -262,19 +259,23 @@ def test_estimator_rejects_a_world(a_world):
 
 
 def test_controller_and_path_memory_reject_a_world(a_world):
-    try:
-        from navstack.control import SlitherController
-        from navstack.path import PathMemory
-    except ImportError:
-        pytest.skip("control.py / path.py not there yet")
-    from navstack import jpl_serpentine
+    from navstack.control import SlitherController
+    from navstack.jpl import jpl_serpentine
+    from navstack.path import PathMemory
 
-    with pytest.raises(Exception):  # noqa: B017 - whatever the error, a World is not accepted
-        SlitherController(a_world)
-    with pytest.raises(Exception):  # noqa: B017
+    with pytest.raises(TypeError, match="config must be a ControlConfig, got World"):
         SlitherController(jpl_serpentine(), a_world)
-    with pytest.raises(Exception):  # noqa: B017
+    with pytest.raises(TypeError, match="World"):
+        SlitherController(jpl_serpentine(), None, a_world)  # as the start posture q0
+    with pytest.raises(TypeError, match="World"):
         PathMemory(a_world)
+
+
+def test_controller_rejects_a_world_as_its_chain(a_world):
+    from navstack.control import SlitherController
+
+    with pytest.raises(TypeError, match="chain"):
+        SlitherController(a_world)
 
 
 def test_importing_the_core_loads_no_simulator() -> None:

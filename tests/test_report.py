@@ -254,6 +254,65 @@ def test_missing_results_and_cli_exit_status(tmp_path, capsys):
 
 
 def test_reasons_match_the_trial_module():
-    trial = pytest.importorskip("navstack.trial")
+    from navstack import trial
+
     assert set(report.REASONS) == set(trial.REASONS)
     assert math.isclose(report.Z95, 1.959963984540054)
+
+
+# ---------------------------------------------------------------------------------------------- provenance
+
+
+def _prov(**kw) -> dict:
+    base = {"navstack": "0.1.0", "commit": "a" * 40, "python": "3.11.7", "pybullet": "3.2.7", "numpy": "2.1.0",
+            "host": "h1", "backend": "local"}
+    return {**base, **kw}
+
+
+def test_provenance_listed_and_mixed_versions_warned(tmp_path, capsys):
+    recs = synthetic_records()[:9]
+    for i, r in enumerate(recs):
+        r["provenance"] = _prov(host=f"h{i % 2}", backend="ray" if i % 3 == 0 else "local")
+    write_jsonl(tmp_path / "results.jsonl", recs)
+    text = write_report(tmp_path, plots=False).read_text()
+    assert "mixes software versions" not in text  # other hosts and backends are the same software
+    rows = md_table(text, "## Provenance")
+    assert rows == [["0.1.0", f"`{'a' * 40}`", "3.11.7", "3.2.7", "2.1.0", "local, ray", "h0, h1", "9"]]
+
+    recs[4]["provenance"] = _prov(numpy="2.2.0")
+    del recs[7]["provenance"]  # a line written before provenance existed
+    write_jsonl(tmp_path / "results.jsonl", recs)
+    parser = argparse.ArgumentParser()
+    report.add_arguments(parser)
+    assert report.run_from_args(parser.parse_args([str(tmp_path), "--no-plots"])) == 0
+    assert "mixes software versions" in capsys.readouterr().err
+    text = (tmp_path / "report.md").read_text()
+    assert "**Warning: this sweep mixes software versions** (3 different" in text
+    rows = md_table(text, "## Provenance")
+    assert [(r[4], r[-1]) for r in rows] == [("2.1.0", "7"), ("2.2.0", "1"), ("-", "1")]
+    assert rows[-1][0] == "(not recorded)"
+
+
+def test_retraction_column_counts_only_records_that_carry_the_key(tmp_path):
+    recs = synthetic_records()
+    flags = {}
+    for i, r in enumerate(recs):
+        if r.get("family") == "truss":  # the truss worlds ask for retraction
+            r["retracted"] = bool(r["success"] and i % 2 == 0)
+            flags[r["trial_id"]] = r["retracted"]
+    write_jsonl(tmp_path / "results.jsonl", recs)
+    text = write_report(tmp_path, plots=False).read_text()
+    rows = md_table(text, "## Success rate per controller")
+    for c, p, *_rate, ret in rows:
+        mine = [r for r in recs if (r["controller"], r["planner"]) == (c, p) and "retracted" in r]
+        assert ret == f"{sum(r['retracted'] for r in mine)}/{len(mine)}"
+    rows = md_table(text, "## Success rate per family, difficulty and controller")
+    for f, d, c, p, *_rate, ret in rows:
+        mine = [r for r in recs if r.get("family") == f and f"{r['difficulty']:g}" == d
+                and (r["controller"], r["planner"]) == (c, p) and "retracted" in r]
+        assert ret == (f"{sum(r['retracted'] for r in mine)}/{len(mine)}" if mine else "-")
+    assert {r[0] for r in rows if r[-1] != "-"} == {"truss"}
+    recs[0]["retracted"] = "yes"
+    write_jsonl(tmp_path / "results.jsonl", recs)
+    with pytest.raises(ReportError, match="line 1: field 'retracted' must be true or false"):
+        write_report(tmp_path, plots=False)

@@ -25,6 +25,7 @@ from navstack.world import World, save_world, world_from_dict
 
 __all__ = [
     "FAMILY_EXAMPLES",
+    "blind_pocket_world",
     "ISSUE_PIPE_RACK",
     "pipe_rack_world",
     "truss_clutter_world",
@@ -98,8 +99,8 @@ def u_trap_world() -> World:
     back = box_dict((mouth + depth + wall / 2, y0, zc), (wall / 2, half_w + wall, hz))
     left = box_dict((mouth + depth / 2, y0 - half_w - wall / 2, zc), (depth / 2, wall / 2, hz))
     right = box_dict((mouth + depth / 2, y0 + half_w + wall / 2, zc), (depth / 2, wall / 2, hz))
-    goal = np.array([mouth + depth + wall + 0.22, y0, z0 + 0.08])
-    via = np.array([[mouth - 0.02, y0, z0 + 0.2], [mouth + depth + wall / 2, y0, z0 + 0.2], goal])
+    goal = np.array([mouth + depth + wall + 0.35, y0, z0 + 0.12])
+    via = np.array([[mouth + 0.05, y0, z0 + 0.22], [mouth + depth, y0, z0 + 0.22], goal])
     desc = ("A U-shaped trap of three boxes (back wall and two side walls, open upwards, downwards and "
             "towards the robot) straight ahead of the tip; the goal is behind the back wall.  Heading "
             "straight for the goal leads into the U; the way round is over the top (reference via points in "
@@ -107,6 +108,33 @@ def u_trap_world() -> World:
     cand = Candidate(obstacles=[back, left, right], goals=goal[None], via=via, structure=3, params={},
                       description=desc)
     return _fixed(cand, "u-trap", "u-trap", "local-minimum trap for a potential-field planner")
+
+
+def blind_pocket_world() -> World:
+    """A box tube open towards the robot, straight on the way to the goal and deeper than the sensors see.
+
+    From outside the tube's back wall is beyond the rays' 0.4 m, so the straight way through the opening
+    looks open: a planner that takes it must find the back wall from inside, where the tube (0.2 m wide,
+    less than a turn) leaves no room to turn, and back out to go over the top.
+    """
+    x0, y0, z0 = TIP
+    mouth, depth, half, wall = x0 + 0.45, 0.5, 0.1, 0.02
+    xc = mouth + depth / 2
+    boxes = [
+        box_dict((mouth + depth + wall / 2, y0, z0), (wall / 2, half + wall, half + wall)),  # back
+        box_dict((xc, y0, z0 + half + wall / 2), (depth / 2, half + wall, wall / 2)),  # top
+        box_dict((xc, y0, z0 - half - wall / 2), (depth / 2, half + wall, wall / 2)),  # bottom
+        box_dict((xc, y0 + half + wall / 2, z0), (depth / 2, wall / 2, half)),  # sides
+        box_dict((xc, y0 - half - wall / 2, z0), (depth / 2, wall / 2, half)),
+    ]
+    goal = np.array([mouth + depth + wall + 0.35, y0, z0 + 0.12])
+    via = np.array([[mouth + 0.05, y0, z0 + 0.22], [mouth + depth, y0, z0 + 0.22], goal])
+    desc = ("A box tube (0.2 m square inside, 0.5 m deep) open towards the robot, on the straight way to the "
+            "goal behind it; from outside its back wall is beyond the sensors' range.  The way round is over "
+            "the top; a planner that enters the tube must back out.")
+    cand = Candidate(obstacles=boxes, goals=goal[None], via=via, structure=len(boxes), params={},
+                     description=desc)
+    return _fixed(cand, "blind-pocket", "blind-pocket", "pocket deeper than the sensor range on the way")
 
 
 ISSUE_PIPE_RACK = ("pipe-rack", 7, 0.6)
@@ -125,7 +153,8 @@ def pipe_rack_world() -> World:
 def write_issue_worlds(folder: str | Path) -> list[Path]:
     """Write the fixed worlds of the sensor-planner issue into ``folder`` (created if missing).
 
-    ``truss_displaced.json``, ``truss_clutter.json``, ``u_trap.json`` and ``pipe_rack.json``; each passes
+    ``truss_displaced.json``, ``truss_clutter.json``, ``u_trap.json``, ``pipe_rack.json`` and
+    ``blind_pocket.json``; each passes
     :func:`check_world`.  Returns the written paths.
     """
     out = Path(folder)
@@ -133,7 +162,8 @@ def write_issue_worlds(folder: str | Path) -> list[Path]:
     written = []
     for fname, make in (("truss_displaced.json", truss_displaced_world),
                         ("truss_clutter.json", truss_clutter_world),
-                        ("u_trap.json", u_trap_world), ("pipe_rack.json", pipe_rack_world)):
+                        ("u_trap.json", u_trap_world), ("pipe_rack.json", pipe_rack_world),
+                        ("blind_pocket.json", blind_pocket_world)):
         path = out / fname
         save_world(make(), path)
         written.append(path)

@@ -86,8 +86,8 @@ class SearchConfig:
     step: float = 0.05
     samples: int = 5
     n_dirs: int = 8
-    cell: float = 0.025
-    heading_bin: float = math.radians(10.0)
+    cell: float = 0.02
+    heading_bin: float = math.radians(6.0)
     epsilon: float = 1.5
     w_turn: float = 0.05
     goal_fraction: float = 0.7

@@ -1,0 +1,184 @@
+"""Tests of navstack.compare: intervals and tests against published or independently computed values, pairing,
+method matching, the Markdown and the command line."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from navstack import compare
+from navstack.compare import fisher_exact_p, mcnemar_exact, newcombe_paired, newcombe_unpaired
+
+Z = 1.959963984540054
+
+
+@pytest.mark.parametrize(("k_a", "n_a", "k_b", "n_b", "lo", "hi"), [
+    # Newcombe (1998), Stat. Med. 17:873, Table II, method 10 (difference B - A = first - second there);
+    # statsmodels 0.15 confint_proportions_2indep(method="newcomb") gives the same to 1e-12
+    (48, 80, 56, 70, 0.0524, 0.3339),
+    (3, 10, 9, 10, 0.1705, 0.8090),
+    (2, 7, 6, 7, 0.0582, 0.8062),
+    (0, 29, 5, 56, -0.0381, 0.1926),
+    (0, 20, 0, 10, -0.1611, 0.2775),
+    (0, 20, 10, 10, 0.6791, 1.0000),
+])
+def test_newcombe_unpaired_published_values(k_a, n_a, k_b, n_b, lo, hi):
+    assert newcombe_unpaired(k_a, n_a, k_b, n_b) == pytest.approx((lo, hi), abs=1e-4)
+
+
+def hand_wilson(k: int, n: int) -> tuple[float, float]:
+    roots = np.sort(np.roots([1 + Z * Z / n, -(2 * k / n + Z * Z / n), (k / n) ** 2]).real)
+    return max(0.0, roots[0]), min(1.0, roots[1])
+
+
+def hand_paired(a: int, b: int, c: int, d: int) -> tuple[float, float]:
+    """Newcombe (1998), Stat. Med. 17:2635, method 10, written out from the paper for p_A - p_B with
+    p_A = (a + b) / n, p_B = (a + c) / n; returned as the interval of p_B - p_A."""
+    n = a + b + c + d
+    p1, p2 = (a + b) / n, (a + c) / n
+    l1, u1 = hand_wilson(a + b, n)
+    l2, u2 = hand_wilson(a + c, n)
+    num = a * d - b * c
+    if num > n / 2:
+        num -= n / 2
+    elif num >= 0:
+        num = 0
+    den = math.sqrt((a + b) * (c + d) * (a + c) * (b + d))
+    phi = num / den if den else 0.0
+    lo = (p1 - p2) - math.sqrt((p1 - l1) ** 2 - 2 * phi * (p1 - l1) * (u2 - p2) + (u2 - p2) ** 2)
+    hi = (p1 - p2) + math.sqrt((p2 - l2) ** 2 - 2 * phi * (p2 - l2) * (u1 - p1) + (u1 - p1) ** 2)
+    return -hi, -lo
+
+
+@pytest.mark.parametrize("table", [(14, 5, 0, 22), (36, 12, 2, 0), (10, 3, 8, 4), (0, 0, 0, 7), (5, 0, 0, 5),
+                                   (1, 1, 7, 12), (20, 2, 9, 1)])
+def test_newcombe_paired_matches_the_paper_formula(table):
+    lo, hi = newcombe_paired(*table)
+    assert (lo, hi) == pytest.approx(hand_paired(*table), abs=1e-9)
+    a, b, c, d = table
+    n = sum(table)
+    assert lo <= (c - b) / n <= hi
+    assert newcombe_paired(a, c, b, d) == pytest.approx((-hi, -lo), abs=1e-12)  # swapping A and B mirrors it
+
+
+def test_newcombe_paired_without_correlation_is_the_unpaired_interval():
+    # a d - b c = 0: phi = 0, the square-and-add of the two Wilson intervals at the same n
+    assert newcombe_paired(2, 2, 2, 2) == pytest.approx(newcombe_unpaired(4, 8, 4, 8), abs=1e-12)
+    assert newcombe_paired(6, 2, 3, 1) == pytest.approx(newcombe_unpaired(8, 12, 9, 12), abs=1e-12)
+
+
+@pytest.mark.parametrize(("b", "c"), [(0, 5), (5, 0), (3, 3), (2, 9), (0, 0), (1, 12)])
+def test_mcnemar_exact_is_the_binomial_tail(b, c):
+    m = b + c
+    if m == 0:
+        want = 1.0
+    else:
+        tail = sum(math.comb(m, i) for i in range(min(b, c) + 1)) / 2 ** m
+        want = min(1.0, 2 * tail)
+    assert mcnemar_exact(b, c) == pytest.approx(want, rel=1e-12)
+
+
+def test_fisher_exact_known_value():
+    # R's fisher.test(matrix(c(3, 1, 1, 3), 2)) (the tea-tasting example): p = 0.4857
+    assert fisher_exact_p(3, 4, 1, 4) == pytest.approx(0.4857, abs=1e-4)
+    assert fisher_exact_p(4, 8, 4, 8) == pytest.approx(1.0)
+
+
+# ---------------------------------------------------------------------------------------------- sweeps
+
+
+def sweep_records(outcomes: dict[tuple[str, int], bool], controller="slither", planner="field") -> list[dict]:
+    """Records of a sweep: ``outcomes[(family, index)] = success``."""
+    recs = []
+    for (fam, i), ok in outcomes.items():
+        recs.append({"trial_id": f"{fam}__{i}__{controller}__{planner}", "world": f"{fam}-{i}", "seed": 100 + i,
+                     "controller": controller, "planner": planner, "success": ok,
+                     "reason": "reached" if ok else "collision", "family": fam, "difficulty": 0.5,
+                     "world_id": f"{fam}__d0.5__{i:04d}", "world_seed": 1000 + i})
+    return recs
+
+
+def test_same_trials_are_paired_and_counted():
+    a = {("truss", i): i % 2 == 0 for i in range(10)} | {("pipe-rack", i): True for i in range(6)}
+    b = {("truss", i): i % 3 != 0 for i in range(10)} | {("pipe-rack", i): i != 4 for i in range(6)}
+    rows = compare.compare(sweep_records(a), sweep_records(b))
+    assert [(r.family, r.paired) for r in rows] == [("pipe-rack", True), ("truss", True), ("(all)", True)]
+    truss = rows[1]
+    a_only = sum(a[("truss", i)] and not b[("truss", i)] for i in range(10))
+    b_only = sum(b[("truss", i)] and not a[("truss", i)] for i in range(10))
+    assert (truss.a_only, truss.b_only) == (a_only, b_only) == (2, 3)
+    assert (truss.k_a, truss.n_a, truss.k_b, truss.n_b) == (5, 10, 6, 10)
+    assert truss.diff == pytest.approx(0.1)
+    assert truss.p_value == pytest.approx(mcnemar_exact(2, 3))
+    both = sum(a[("truss", i)] and b[("truss", i)] for i in range(10))
+    assert (truss.ci_low, truss.ci_high) == pytest.approx(hand_paired(both, 2, 3, 10 - both - 5))
+    pooled = rows[2]
+    assert (pooled.n_a, pooled.k_a, pooled.k_b) == (16, 11, 11) and pooled.test == "McNemar exact"
+
+
+def test_different_trials_are_unpaired():
+    a = sweep_records({("truss", i): i < 7 for i in range(10)})
+    b = sweep_records({("truss", i): i < 3 for i in range(12)})  # two more worlds: not the same trials
+    (row, pooled) = compare.compare(a, b)
+    assert not row.paired and row.test == "Fisher exact"
+    assert row.p_value == pytest.approx(fisher_exact_p(7, 10, 3, 12))
+    assert (row.ci_low, row.ci_high) == pytest.approx(newcombe_unpaired(7, 10, 3, 12))
+    for r in b:  # same worlds, other noise seeds: not paired either
+        r["seed"] += 1
+    assert not compare.compare(a, b[:10])[0].paired
+
+
+def test_methods_matched_by_name_or_single_against_single():
+    a = sweep_records({("truss", i): True for i in range(4)}, planner="field")
+    b = sweep_records({("truss", i): i < 2 for i in range(4)}, planner="scripted")
+    rows = compare.compare(a, b)
+    assert [r.label for r in rows] == ["slither/field vs slither/scripted"] * 2
+    assert rows[0].paired and (rows[0].a_only, rows[0].b_only) == (2, 0)
+    two = a + sweep_records({("truss", i): False for i in range(4)}, controller="tip-only")
+    assert compare.compare(two, b) == []  # nothing in common and no single-method pair
+    rows = compare.compare(two, a)
+    assert {r.method_a for r in rows} == {("slither", "field")}
+    text = compare.render_markdown(rows, "A", "B", two, a)
+    assert "Only in A (not compared): tip-only/field" in text
+
+
+def _write(folder: Path, recs: list[dict]) -> Path:
+    folder.mkdir(parents=True)
+    (folder / "results.jsonl").write_text("".join(json.dumps(r) + "\n" for r in recs))
+    return folder
+
+
+def _args(argv: list[str]) -> argparse.Namespace:
+    parser = argparse.ArgumentParser()
+    compare.add_arguments(parser)
+    return parser.parse_args(argv)
+
+
+def test_command_line_markdown_plot_and_bad_input(tmp_path, capsys):
+    a = _write(tmp_path / "a", sweep_records({("truss", i): i % 2 == 0 for i in range(8)}))
+    b = _write(tmp_path / "b", sweep_records({("truss", i): i != 3 for i in range(8)}))
+    out = tmp_path / "cmp"
+    assert compare.run_from_args(_args([str(a), str(b), "--out", str(out)])) == 0
+    printed = capsys.readouterr().out
+    assert printed == (out / "compare.md").read_text()
+    row = next(line for line in printed.splitlines() if line.startswith("| slither/field | truss"))
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    assert cells[2:7] == ["4/8", "7/8", "0.500", "0.875", "+0.375"]
+    assert cells[8:] == [f"{mcnemar_exact(0, 3):.3g}", "McNemar exact", "0", "3"]
+    assert (out / "compare.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and "(compare.png)" in printed
+
+    assert compare.run_from_args(_args([str(a), str(tmp_path / "nowhere")])) == 2
+    assert "nowhere: not a directory" in capsys.readouterr().err
+    c = _write(tmp_path / "c", sweep_records({("truss", 0): True}, controller="tip-only") +
+               sweep_records({("truss", 1): True}, planner="scripted"))
+    assert compare.run_from_args(_args([str(a), str(c)])) == 2
+    assert "no controller/planner in common" in capsys.readouterr().err
+    (tmp_path / "d").mkdir()
+    (tmp_path / "d" / "results.jsonl").write_text('{"controller": "slither"}\n')
+    assert compare.run_from_args(_args([str(a), str(tmp_path / "d")])) == 2
+    assert "line 1: field 'planner'" in capsys.readouterr().err

@@ -1,0 +1,199 @@
+"""Tests of navstack.executors: the Ray backend against the local one, failures on both, the worker pool's
+recovery from a broken pebble pool, and provenance.
+
+The Ray tests start a local Ray instance (``num_cpus=2``, no dashboard) through ``run_sweep`` itself, as
+``navstack trials --backend ray`` does; the fake runner and generator come from ``tests/test_sweep.py``.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import json
+import subprocess
+import time
+from concurrent.futures.process import BrokenProcessPool
+from pathlib import Path
+
+import pytest
+import ray
+from test_sweep import fake_generator, fake_runner, lines_of, write_worlds
+
+from navstack import executors, provenance
+from navstack.executors import SweepWorkerError, TrialJob, WorkerPool
+from navstack.sweep import SweepConfig, build_specs, run_sweep
+
+
+def comparable(records: list[dict]) -> list[dict]:
+    """Lines without what may differ between backends: ``wall_time``, ``provenance.host`` and
+    ``provenance.backend`` (which names the backend, so it differs by definition)."""
+    out = []
+    for r in records:
+        r = {k: v for k, v in r.items() if k != "wall_time"}
+        r["provenance"] = {k: v for k, v in r["provenance"].items() if k not in ("host", "backend")}
+        out.append(r)
+    return out
+
+
+@pytest.mark.slow
+def test_ray_sweep_gives_the_local_lines(tmp_path, monkeypatch):
+    monkeypatch.delenv("RAY_ADDRESS", raising=False)
+    monkeypatch.setattr("navstack.sweep._known_families", lambda: ("truss", "pipe-rack", "sphere-field"))
+    specs = build_specs(SweepConfig(families=("truss", "pipe-rack", "sphere-field"), count=1, seed=5,
+                                    controllers=("slither", "tip-only")))
+    assert len(specs) == 6
+    for backend in ("local", "ray"):
+        run_sweep(specs, tmp_path / backend, jobs=2, runner=fake_runner, generator=fake_generator,
+                  progress=False, backend=backend)
+    local, remote = (lines_of(tmp_path / b / "results.jsonl") for b in ("local", "ray"))
+    assert [r["provenance"]["backend"] for r in local] == ["local"] * 6
+    assert [r["provenance"]["backend"] for r in remote] == ["ray"] * 6
+    assert comparable(local) == comparable(remote)
+    assert [r["trial_id"] for r in remote] == [s.trial_id for s in specs]
+    for s in specs:  # the driver wrote the worlds the Ray workers generated
+        assert (tmp_path / "ray" / s.world_file).read_bytes() == (tmp_path / "local" / s.world_file).read_bytes()
+    assert not ray.is_initialized()  # the instance run_sweep started is shut down
+
+
+@pytest.mark.slow
+def test_ray_hanging_and_dying_trials_are_errors_and_sweep_completes(tmp_path, monkeypatch):
+    monkeypatch.delenv("RAY_ADDRESS", raising=False)
+    folder = write_worlds(tmp_path / "in", 2)
+    for name, behaviour in (("x_hang", "hang"), ("x_die", "die"), ("x_kill_worker", "die_parent")):
+        (folder / f"{name}.json").write_text(json.dumps({"name": name, "extra": {"behaviour": behaviour}}))
+    specs = build_specs(SweepConfig(worlds_dir=str(folder)))
+    summary = run_sweep(specs, tmp_path / "out", jobs=2, trial_timeout=5.0, runner=fake_runner, progress=False,
+                        backend="ray")
+    recs = {r["world_id"]: r for r in lines_of(tmp_path / "out" / "results.jsonl")}
+    assert summary.complete and summary.errors == 3 and len(recs) == 5
+    assert "5 s wall-clock limit" in recs["x_hang"]["error"]
+    assert "worker process died (exit code 7)" in recs["x_die"]["error"]
+    # the Ray worker itself killed: Ray retries the task, then gives up; where it died is unknown
+    assert recs["x_kill_worker"]["error"].startswith("Ray task failed: ")
+    assert recs["x_kill_worker"]["provenance"]["host"] is None
+    for name in ("x_hang", "x_die", "x_kill_worker"):
+        assert (recs[name]["success"], recs[name]["reason"]) == (False, "error")
+    assert recs["w00"]["reason"] in ("reached", "collision") and recs["w01"]["reason"] in ("reached", "collision")
+
+
+def test_unknown_backend_is_bad_input(tmp_path):
+    from navstack.sweep import SweepError
+
+    folder = write_worlds(tmp_path / "in", 1)
+    specs = build_specs(SweepConfig(worlds_dir=str(folder)))
+    with pytest.raises(SweepError, match="unknown backend 'dask'"):
+        run_sweep(specs, tmp_path / "out", runner=fake_runner, progress=False, backend="dask")
+
+
+# ---------------------------------------------------------------------------------------------- pool recovery
+
+
+class _Done(cf.Future):
+    def __init__(self, exc: BaseException | None = None, value=None) -> None:
+        super().__init__()
+        if exc is not None:
+            self.set_exception(exc)
+        else:
+            self.set_result(value)
+
+
+class _Event:
+    def __init__(self, flag: bool) -> None:
+        self.flag = flag
+
+    def is_set(self) -> bool:
+        return self.flag
+
+
+def _job(tmp_path: Path) -> TrialJob:
+    folder = write_worlds(tmp_path / "in", 1)
+    spec = build_specs(SweepConfig(worlds_dir=str(folder)))[0]
+    return TrialJob(spec=spec, world_text=Path(spec.world_file).read_text(), runner=fake_runner)
+
+
+def test_broken_lane_is_replaced_and_its_trial_run_again(tmp_path, monkeypatch):
+    """pebble's race (a worker that dies at once breaks its pool) must not lose or misreport the trial."""
+    from navstack.executors import _Lane, _Task
+
+    pool = WorkerPool(1)
+    job = _job(tmp_path)
+    replaced = []
+    monkeypatch.setattr(pool, "_replace", replaced.append)
+    monkeypatch.setattr(pool, "_dispatch", lambda: None)
+    lane = _Lane(pool=None, started=_Event(True), busy=True)
+    task = _Task(job, 9.0, cf.Future())
+    pool._settle(_Done(BrokenProcessPool("All workers expired")), lane, task, 0.0)
+    assert replaced == [lane] and list(pool._queue) == [task] and task.attempt == 2 and not task.out.done()
+    assert not lane.busy
+    # ... at most MAX_ATTEMPTS times, then an error reply
+    pool._queue.clear()
+    task.attempt = executors.MAX_ATTEMPTS
+    pool._settle(_Done(BrokenProcessPool("x")), lane, task, 0.0)
+    assert task.out.result()["result"] is None and "broke 3 times" in task.out.result()["error"]
+    # a worker that never started: the sweep stops
+    task = _Task(job, 9.0, cf.Future())
+    pool._settle(_Done(BrokenProcessPool("x")), _Lane(pool=None, started=_Event(False)), task, 0.0)
+    with pytest.raises(SweepWorkerError, match="died while starting"):
+        task.out.result()
+    assert not pool._queue
+    pool.close(cancel=True)
+
+
+def test_a_worker_that_never_starts_stops_the_sweep_after_the_startup_limit():
+    from navstack.executors import _Lane
+
+    pool = WorkerPool(1)
+    pool.check(startup_timeout=0.0)  # idle lanes are never late
+    pool._lanes[0] = _Lane(pool=pool._lanes[0].pool, started=_Event(False), busy=True,
+                          born=time.monotonic() - 301.0)
+    with pytest.raises(SweepWorkerError, match="did not start within 300 s"):
+        pool.check(startup_timeout=300.0)
+    pool._lanes[0].started = _Event(True)
+    pool.check(startup_timeout=300.0)
+    pool.close(cancel=True)
+
+
+def test_pool_runs_trials_and_reports_timeouts_and_deaths(tmp_path):
+    job = _job(tmp_path)
+    hang = TrialJob(spec=job.spec, world_text=json.dumps({"name": "h", "extra": {"behaviour": "hang"}}),
+                    runner=fake_runner)
+    die = TrialJob(spec=job.spec, world_text=json.dumps({"name": "d", "extra": {"behaviour": "die"}}),
+                   runner=fake_runner)
+    pool = WorkerPool(2, runner=fake_runner)
+    try:
+        ok, hung, died = pool.submit(job, None), pool.submit(hang, 5.0), pool.submit(die, None)
+        assert ok.result()["result"]["world"] == "w00" and ok.result()["error"] is None
+        assert hung.result()["error"] == "trial exceeded the 5 s wall-clock limit; worker killed"
+        assert died.result()["error"].startswith("worker process died (exit code 7)")
+        assert pool.submit(job, None).result()["result"] == ok.result()["result"]  # the pool goes on
+    finally:
+        pool.close(cancel=True)
+
+
+# ---------------------------------------------------------------------------------------------- provenance
+
+
+def _git(cwd: Path, *args: str) -> str:
+    return subprocess.run(["git", "-C", str(cwd), *args], check=True, capture_output=True, text=True).stdout
+
+
+def test_source_commit_only_for_a_tracked_navstack(tmp_path):
+    assert provenance.source_commit(tmp_path) is None  # not a git checkout
+    repo = tmp_path / "repo"
+    pkg = repo / "navstack"
+    pkg.mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    _git(repo, "init", "-q")
+    (repo / "other.txt").write_text("x")
+    _git(repo, "add", "other.txt")
+    _git(repo, "-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "other")
+    assert provenance.source_commit(pkg) is None  # someone else's repository: navstack is not tracked there
+    _git(repo, "add", "navstack/__init__.py")
+    _git(repo, "-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "navstack")
+    assert provenance.source_commit(pkg) == _git(repo, "rev-parse", "HEAD").strip()
+
+
+def test_provenance_keys_and_version_key():
+    p = provenance.provenance("ray")
+    assert tuple(p) == provenance.PROVENANCE_KEYS and p["backend"] == "ray"
+    assert provenance.version_key(p) == tuple(p[k] for k in provenance.VERSION_KEYS)
+    assert provenance.version_key(None) is None
