@@ -1,0 +1,374 @@
+"""The sensing tip planner in closed loop (navstack.planner.field.FieldPlanner).
+
+A free point "robot" (a sphere of the tip's radius) is flown in PyBullet with perfect tracking of the
+command, as in the trial: each step the RaySensor casts from the tip along its heading, the
+RangeEstimator filters the reading, and the planner gets the reading, the tip state and the count of
+goals reached (advanced like the trial's).  The obstacles are known to PyBullet only; clearances are
+PyBullet's closest points between the sphere and the obstacles.
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+import re
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet as p
+import pytest
+from pybullet_utils.bullet_client import BulletClient
+
+from navstack.estimate import RangeEstimator
+from navstack.planner import TipCommand, TipPlanner
+from navstack.planner.field import FieldPlanner, FieldPlannerConfig
+from navstack.planner.search import turn_then_straight
+from navstack.sensing import SensorConfig, frame_from_direction
+from navstack.sim.rays import RaySensor
+
+R_TIP = 0.025
+DT = 1.0 / 30.0  # the trial's control period
+CFG = FieldPlannerConfig()
+RADIUS = CFG.search.min_turn_radius
+
+
+# ---------------------------------------------------------------------------- harness
+@dataclass
+class Flight:
+    reached: bool
+    stalled: bool
+    steps: int
+    positions: np.ndarray  # (steps + 1, 3) the tip, from the start
+    commands: list[TipCommand]
+    clearance: float  # smallest distance between the tip sphere and any obstacle [m]
+    first_within: list[int]  # per goal, the first step at which the tip was within its tolerance
+    planner: FieldPlanner
+
+
+def _boxes(client, boxes) -> list[int]:
+    ids = []
+    for centre, half in boxes:
+        shape = client.createCollisionShape(p.GEOM_BOX, halfExtents=list(half))
+        ids.append(client.createMultiBody(0, shape, -1, list(centre)))
+    return ids
+
+
+def _fly(boxes=(), goals=((1.0, 0.0, 0.0),), tol=0.02, start=(0.0, 0.0, 0.0), heading=(1.0, 0.0, 0.0),
+         t_max=60.0, seed=0, config: FieldPlannerConfig | None = None) -> Flight:
+    client = BulletClient(connection_mode=p.DIRECT)
+    try:
+        obstacles = _boxes(client, boxes)
+        robot = client.createMultiBody(0, client.createCollisionShape(p.GEOM_SPHERE, radius=R_TIP), -1, list(start))
+        sensor_cfg = SensorConfig()
+        sensor = RaySensor(client, sensor_cfg, robot, np.random.default_rng(seed))
+        estimator = RangeEstimator(sensor_cfg)
+        G = np.asarray(goals, dtype=float).reshape(-1, 3)
+        tols = np.full(len(G), tol)
+        planner = FieldPlanner(start, heading, G, tols, config)
+        x = np.array(start, dtype=float)
+        h = np.asarray(heading, dtype=float) / np.linalg.norm(heading)
+        k, positions, commands, clearance = 0, [x.copy()], [], math.inf
+        first = [-1] * len(G)
+        steps = int(round(t_max / DT))
+        for step in range(steps + 1):
+            for j in range(len(G)):
+                if first[j] < 0 and np.linalg.norm(x - G[j]) <= tols[j]:
+                    first[j] = step
+            while k < len(G) and np.linalg.norm(x - G[k]) <= tols[k]:  # as the trial counts goals
+                k += 1
+            if k == len(G) or step == steps:
+                return Flight(k == len(G), False, step, np.array(positions), commands, clearance, first, planner)
+            reading = estimator.update(sensor.read(frame_from_direction(x, h)), DT)
+            cmd = planner.step(DT, x, h, reading, k)
+            commands.append(cmd)
+            if cmd.stalled:
+                return Flight(False, True, step, np.array(positions), commands, clearance, first, planner)
+            x = np.array(cmd.position, dtype=float)
+            v = np.asarray(cmd.velocity, dtype=float)
+            if np.linalg.norm(v) > 0:  # the tip's heading: backwards along a reverse command
+                h = (-v if cmd.reverse else v) / np.linalg.norm(v)
+            client.resetBasePositionAndOrientation(robot, x.tolist(), [0.0, 0.0, 0.0, 1.0])
+            for o in obstacles:
+                for c in client.getClosestPoints(robot, o, 1.0):
+                    clearance = min(clearance, c[8])
+            positions.append(x.copy())
+        raise AssertionError("unreachable")
+    finally:
+        client.disconnect()
+
+
+def _assert_forward_commands_curvature_bounded(commands: list[TipCommand]) -> None:
+    """Between consecutive forward commands the heading turns by at most (distance moved) / min_turn_radius."""
+    worst = 0.0
+    for a, b in zip(commands[:-1], commands[1:], strict=True):
+        if a.reverse or b.reverse:
+            continue
+        va, vb = np.linalg.norm(a.velocity), np.linalg.norm(b.velocity)
+        if va == 0 or vb == 0:
+            continue
+        angle = math.acos(float(np.clip(a.velocity @ b.velocity / (va * vb), -1.0, 1.0)))
+        moved = float(np.linalg.norm(b.position - a.position))
+        assert angle <= moved / RADIUS * 1.01 + 1e-6, f"turned {angle:.4f} rad over {moved * 1e3:.2f} mm"
+        worst = max(worst, angle / max(moved, 1e-12))
+    assert worst <= 1.01 / RADIUS
+
+
+def _assert_speed_limits(commands: list[TipCommand]) -> None:
+    forward = [c for c in commands if not c.reverse]
+    reverse = [c for c in commands if c.reverse]
+    assert max(np.linalg.norm(c.velocity) for c in forward) <= CFG.steering.v_max + 1e-9
+    if reverse:
+        assert max(np.linalg.norm(c.velocity) for c in reverse) <= CFG.escape.speed + 1e-9
+
+
+def _slot_wall(x=0.5, y0=0.15, width=0.1, half=0.6, t=0.02):
+    """A wall (thickness 2 t) at x over |y|, |z| <= half with a vertical slot |y - y0| < width / 2."""
+    lo, hi = y0 - width / 2, y0 + width / 2
+    return [([x, (lo - half) / 2, 0.0], [t, (lo + half) / 2, half]),
+            ([x, (hi + half) / 2, 0.0], [t, (half - hi) / 2, half])]
+
+
+def _cup(x0=0.6, x1=1.1, a=0.12, t=0.02):
+    """A box-shaped pocket open towards -x: inner half-width a, walls of thickness 2 t from x0 to x1, back at x1."""
+    length, xc, o = 0.5 * (x1 - x0), 0.5 * (x0 + x1), a + t
+    return [([xc, o, 0.0], [length, t, o + t]), ([xc, -o, 0.0], [length, t, o + t]),
+            ([xc, 0.0, o], [length, o + t, t]), ([xc, 0.0, -o], [length, o + t, t]),
+            ([x1 + t, 0.0, 0.0], [t, o + t, o + t])]
+
+
+def _enclosure(c, a=0.2, t=0.01):
+    c = np.asarray(c, dtype=float)
+    out = []
+    for ax in range(3):
+        for s in (-1, 1):
+            centre = c.copy()
+            centre[ax] += s * a
+            half = [a + t] * 3
+            half[ax] = t
+            out.append((centre, half))
+    return out
+
+
+def _path_length(positions: np.ndarray) -> float:
+    return float(np.linalg.norm(np.diff(positions, axis=0), axis=1).sum())
+
+
+# ---------------------------------------------------------------------------- free space
+def test_free_flight_to_a_goal():
+    goal = np.array([1.0, 0.2, 0.1])
+    f = _fly(goals=[goal], t_max=40.0)
+    assert f.reached and not f.stalled
+    assert not any(c.reverse for c in f.commands)
+    assert f.planner.retreats == 0
+    _assert_speed_limits(f.commands)
+    _assert_forward_commands_curvature_bounded(f.commands)
+    np.testing.assert_allclose(f.commands[0].position[1:], 0.0, atol=1e-9)  # it sets off along its heading
+    bound = float(turn_then_straight(0.0, 0.0, 0.0, 1.0, 0.0, 0.0, *goal, RADIUS)) - 0.02
+    length = _path_length(f.positions)
+    print(f"\nfree flight: {length:.3f} m in {f.steps * DT:.1f} s (turn-then-straight {bound:.3f} m)")
+    assert bound - 1e-6 <= length <= 1.1 * bound
+    assert f.steps * DT <= 1.3 * length / CFG.steering.v_max + 2.0  # cruising, not dawdling
+
+
+def test_two_goals_in_order():
+    goals = np.array([[0.5, 0.15, 0.0], [1.0, -0.1, 0.05]])
+    f = _fly(goals=goals, t_max=60.0)
+    assert f.reached and not f.stalled
+    assert 0 <= f.first_within[0] < f.first_within[1]
+    _assert_forward_commands_curvature_bounded(f.commands)
+    # no loop: the path is not much longer than the polyline through the goals
+    polyline = np.linalg.norm(goals[0]) + np.linalg.norm(goals[1] - goals[0])
+    assert _path_length(f.positions) <= 1.15 * polyline
+
+
+# ---------------------------------------------------------------------------- surfaces
+def test_a_wall_with_a_slot_off_the_goal_line_is_passed_without_touching():
+    """Wall at x = 0.5 (1.2 m square), slot |y - 0.1| < 0.05: the goal line y = 0 runs into the wall; 2.5 cm
+    between the tip sphere and either side of the slot on its centre line."""
+    y0, width = 0.1, 0.1
+    f = _fly(boxes=_slot_wall(y0=y0, width=width), goals=[(1.2, 0.0, 0.0)], t_max=60.0)
+    print(f"\nslot: reached {f.reached} in {f.steps * DT:.1f} s, clearance {f.clearance * 1e3:.1f} mm, "
+          f"{f.planner.replans} replans, {f.planner.retreats} retreats")
+    assert f.reached
+    assert f.clearance > 0.0
+    x = f.positions[:, 0]
+    i = int(np.argmax(x >= 0.5))
+    assert abs(f.positions[i, 1] - y0) < 0.5 * width - R_TIP  # through the slot, not round the wall
+    _assert_speed_limits(f.commands)
+    _assert_forward_commands_curvature_bounded(f.commands)
+
+
+@pytest.mark.slow
+def test_a_goal_too_close_behind_a_slot_is_reached_or_given_up():
+    """Wall x = 0.5 with a slot |y - 0.15| < 0.05, the goal only 0.5 m behind it: the body may not be able to
+    turn to it after the slot (a planner version went through the slot and backed out 19 times in 120 s,
+    neither reaching nor giving up); it must end one way or the other."""
+    f = _fly(boxes=_slot_wall(y0=0.15, width=0.1), goals=[(1.0, 0.0, 0.0)], t_max=120.0)
+    print(f"\nslot 0.5 m before the goal: reached {f.reached}, stalled {f.stalled} after {f.steps * DT:.1f} s, "
+          f"{f.planner.retreats} retreats, clearance {f.clearance * 1e3:.1f} mm")
+    assert f.reached or f.stalled
+    assert f.clearance > 0.0
+
+
+def test_same_seed_same_commands():
+    def run(seed):
+        f = _fly(boxes=_slot_wall(y0=0.1), goals=[(1.2, 0.0, 0.0)], t_max=10.0, seed=seed)
+        return (np.array([c.position for c in f.commands]), np.array([c.velocity for c in f.commands]),
+                [c.mode for c in f.commands])
+
+    a, b, c = run(4), run(4), run(5)
+    np.testing.assert_array_equal(a[0], b[0])
+    np.testing.assert_array_equal(a[1], b[1])
+    assert a[2] == b[2]
+    assert len(c[0]) != len(a[0]) or not np.array_equal(c[0], a[0])  # the sensor noise does matter
+
+
+@pytest.fixture(scope="module")
+def pocket_flight() -> Flight:
+    """A pocket (0.24 m wide inside, too narrow to turn in, 0.5 m deep, closed at its back) whose mouth lies on
+    the straight way to the goal: its back cannot be seen before the tip is inside; the goal lies behind it,
+    reachable round it."""
+    return _fly(boxes=_cup(), goals=[(1.6, 0.0, 0.0)], t_max=150.0)
+
+
+@pytest.mark.slow
+def test_a_pocket_entered_by_mistake_is_backed_out_of_along_the_commanded_path(pocket_flight):
+    f = pocket_flight
+    rev = [i for i, c in enumerate(f.commands) if c.reverse]
+    print(f"\npocket: reached {f.reached}, stalled {f.stalled} after {f.steps * DT:.1f} s, {f.planner.retreats} "
+          f"retreats ({len(rev)} reverse steps), clearance {f.clearance * 1e3:.1f} mm")
+    assert rev, "no reverse command"
+    assert f.positions[rev[0], 0] > 0.6 + 0.1  # the first retreat starts inside the pocket
+    assert f.clearance > 0.0
+    # every reverse command retraces the path the forward commands took before it
+    pos = np.array([c.position for c in f.commands])
+    for i in rev[:: max(1, len(rev) // 60)]:
+        forward = pos[:i][[not c.reverse for c in f.commands[:i]]]
+        seg_a, d = forward[:-1], np.diff(forward, axis=0)
+        L2 = np.maximum(np.einsum("ij,ij->i", d, d), 1e-18)
+        t = np.clip(np.einsum("ij,ij->i", pos[i] - seg_a, d) / L2, 0.0, 1.0)
+        dist = np.linalg.norm(seg_a + t[:, None] * d - pos[i], axis=1).min()
+        assert dist < 1e-6, f"reverse command {i} is {dist * 1e3:.3f} mm off the commanded path"
+    _assert_speed_limits(f.commands)
+    _assert_forward_commands_curvature_bounded(f.commands)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason=(
+    "since 7a475cd (closed-set cells 2 cm, 6 deg) FieldPlanner stalls in the pocket: cup open towards -x (0.24 m "
+    "square inside, mouth x = 0.6, back x = 1.1), goal (1.6, 0, 0), start at the origin heading +x, seed 0: one "
+    "retreat from x = 0.851 to 0.801, forward again, then stalled at step 506 at x = 0.838 (no branch point "
+    "gives a REACHED plan); at e2ccc7c it backed out 3 times and reached the goal round the pocket in 64.6 s"))
+def test_after_backing_out_of_the_pocket_the_goal_is_reached_round_it(pocket_flight):
+    f = pocket_flight
+    assert f.reached and not f.stalled
+    rev = [i for i, c in enumerate(f.commands) if c.reverse]
+    assert np.abs(f.positions[rev[-1]:, 1:]).max() > 0.12 + 0.04 + R_TIP  # round the pocket, outside its walls
+    assert f.clearance > 0.0
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason=(
+    "since 7a475cd (closed-set cells 2 cm, 6 deg) FieldPlanner no longer gives up on a fully enclosed goal: "
+    "boxed goal at (1, 0, 0), walls 0.2 m from it, start at the origin heading +x, seed 0: after 120 s (3600 "
+    "steps, 5 retreats) neither stalled nor touching (105 mm); at e2ccc7c it stalled after 11.7 s"))
+def test_a_fully_enclosed_goal_ends_stalled_without_touching():
+    f = _fly(boxes=_enclosure([1.0, 0.0, 0.0]), goals=[(1.0, 0.0, 0.0)], t_max=120.0)
+    print(f"\nenclosed goal: stalled {f.stalled} after {f.steps * DT:.1f} s, {f.planner.retreats} retreats, "
+          f"clearance {f.clearance * 1e3:.1f} mm")
+    assert f.stalled and not f.reached
+    assert f.clearance > 0.0
+
+
+# ---------------------------------------------------------------------------- interface and isolation
+BAD_NAME = re.compile(r"world|obstacle|scene|client|geometr|mesh|truss|bullet", re.IGNORECASE)
+BAD_TYPE = re.compile(r"\b(World|Obstacle|Scene|Cylinder|Box|Sphere|Mesh|BulletClient|RobotBody)\b")
+
+
+@pytest.mark.parametrize("func", [FieldPlanner, FieldPlanner.step], ids=["constructor", "step"])
+def test_field_planner_takes_no_world_or_obstacles(func):
+    """As tests/test_isolation.py: no parameter named or annotated as a world, scene or obstacle, and no
+    ``*args`` / ``**kwargs`` through which one could pass."""
+    params = [q for q in inspect.signature(func).parameters.values() if q.name != "self"]
+    assert params
+    for prm in params:
+        assert prm.kind not in (prm.VAR_POSITIONAL, prm.VAR_KEYWORD), f"{func.__qualname__}(*{prm.name}) is open"
+        assert not BAD_NAME.search(prm.name), f"{func.__qualname__} takes a parameter {prm.name!r}"
+        assert not BAD_TYPE.search(str(prm.annotation)), f"{func.__qualname__}.{prm.name}: {prm.annotation}"
+    names = [q.name for q in params]
+    expected = (["start", "heading", "goals", "tolerances", "config"] if func is FieldPlanner
+                else ["dt", "tip", "direction", "reading", "goal_index"])
+    assert names == expected
+
+
+def test_field_planner_is_a_tip_planner():
+    planner = FieldPlanner([0, 0, 0], [1, 0, 0], [[1, 0, 0]], [0.02])
+    assert isinstance(planner, TipPlanner)
+    cmd = planner.step(DT, np.zeros(3), np.array([1.0, 0.0, 0.0]), None, 0)
+    assert isinstance(cmd, TipCommand) and not cmd.stalled and not cmd.reverse
+
+
+@pytest.fixture(scope="module")
+def a_world():
+    from navstack.world import world_from_dict
+
+    return world_from_dict({
+        "format": "navstack-world/1", "name": "isolation", "robot": {},
+        "obstacles": [{"type": "sphere", "center": [1.0, 0.0, 1.8], "radius": 0.1}],
+        "goals": [{"position": [0.9, 0.0, 1.9]}],
+    })
+
+
+def test_field_planner_rejects_a_world_in_place_of_its_inputs(a_world):
+    ok = ([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [[1.0, 0.0, 0.0]], [0.02])
+    for i in range(4):
+        args = list(ok)
+        args[i] = a_world
+        with pytest.raises(TypeError):
+            FieldPlanner(*args)
+    with pytest.raises(TypeError):
+        FieldPlanner(*ok, world=a_world)
+    with pytest.raises(TypeError):
+        FieldPlanner(*ok, obstacles=a_world.obstacles)
+    planner = FieldPlanner(*ok)
+    with pytest.raises(TypeError):
+        planner.step(DT, a_world, np.array([1.0, 0.0, 0.0]), None, 0)
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "FieldPlanner.step(reading=<World>) raises AttributeError ('World' object has no attribute 'measured'), "
+    "and FieldPlanner(config=<World>) AttributeError ('no attribute map'), where the isolation contract "
+    "(tests/test_isolation.py) expects a TypeError"))
+def test_field_planner_rejects_a_world_as_reading_or_config_with_a_type_error(a_world):
+    with pytest.raises(TypeError):
+        FieldPlanner([0, 0, 0], [1, 0, 0], [[1, 0, 0]], [0.02], a_world)
+    planner = FieldPlanner([0, 0, 0], [1, 0, 0], [[1, 0, 0]], [0.02])
+    with pytest.raises(TypeError):
+        planner.step(DT, np.zeros(3), np.array([1.0, 0.0, 0.0]), a_world, 0)
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "FieldPlanner.step never reads or checks `direction`: step(dt, tip, direction=<World>, None, 0) returns "
+    "a command instead of raising"))
+def test_field_planner_rejects_a_world_as_direction(a_world):
+    planner = FieldPlanner([0, 0, 0], [1, 0, 0], [[1, 0, 0]], [0.02])
+    with pytest.raises((TypeError, ValueError)):
+        planner.step(DT, np.zeros(3), a_world, None, 0)
+
+
+@pytest.mark.parametrize(("name", "value"), [("replan_period", 0.0), ("horizon", -1.0), ("ray_start", np.nan),
+                                             ("urgent_margin", True), ("nav_period", np.inf)])
+def test_field_planner_config_rejects_bad_values(name, value):
+    with pytest.raises(ValueError, match=name):
+        FieldPlannerConfig(**{name: value})
+
+
+def test_field_planner_rejects_bad_goals():
+    with pytest.raises(ValueError, match="goals"):
+        FieldPlanner([0, 0, 0], [1, 0, 0], np.zeros((0, 3)), [])
+    with pytest.raises(ValueError, match="goals"):
+        FieldPlanner([0, 0, 0], [1, 0, 0], [[1, 0, 0]], [0.02, 0.02])
+    with pytest.raises(ValueError, match="heading"):
+        FieldPlanner([0, 0, 0], [0, 0, 0], [[1, 0, 0]], [0.02])
+    with pytest.raises(ValueError, match="start"):
+        FieldPlanner([0, 0, np.nan], [1, 0, 0], [[1, 0, 0]], [0.02])
