@@ -335,10 +335,6 @@ def test_field_planner_rejects_a_world_in_place_of_its_inputs(a_world):
         planner.step(DT, a_world, np.array([1.0, 0.0, 0.0]), None, 0)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "FieldPlanner.step(reading=<World>) raises AttributeError ('World' object has no attribute 'measured'), "
-    "and FieldPlanner(config=<World>) AttributeError ('no attribute map'), where the isolation contract "
-    "(tests/test_isolation.py) expects a TypeError"))
 def test_field_planner_rejects_a_world_as_reading_or_config_with_a_type_error(a_world):
     with pytest.raises(TypeError):
         FieldPlanner([0, 0, 0], [1, 0, 0], [[1, 0, 0]], [0.02], a_world)
@@ -347,9 +343,6 @@ def test_field_planner_rejects_a_world_as_reading_or_config_with_a_type_error(a_
         planner.step(DT, np.zeros(3), np.array([1.0, 0.0, 0.0]), a_world, 0)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "FieldPlanner.step never reads or checks `direction`: step(dt, tip, direction=<World>, None, 0) returns "
-    "a command instead of raising"))
 def test_field_planner_rejects_a_world_as_direction(a_world):
     planner = FieldPlanner([0, 0, 0], [1, 0, 0], [[1, 0, 0]], [0.02])
     with pytest.raises((TypeError, ValueError)):

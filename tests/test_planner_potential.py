@@ -115,9 +115,6 @@ def test_cost_rate_uses_the_nearest_of_many_points():
         assert _rate(smap, p) == pytest.approx(_expected_rate(d, seen), abs=1e-9)
 
 
-@pytest.mark.xfail(strict=True, reason="cost_rate looks for surfaces only one map bucket (0.08 m) far: with "
-                   "Repulsion(influence=0.15) a point 0.12 m away costs 0 instead of 0.136; nothing rejects an "
-                   "influence or unseen_radius larger than the map's bucket")
 def test_cost_rate_with_an_influence_beyond_the_map_bucket():
     rep = Repulsion(influence=0.15)
     smap = SensedMap([0, 0, 0], [0.5, 0.3, 0.3])

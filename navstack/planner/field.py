@@ -28,6 +28,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from navstack.estimate import RangeEstimate
 from navstack.path import PathMemory
 from navstack.planner.escape import EscapeConfig, find_branch_point
 from navstack.planner.map import MapConfig, SensedMap
@@ -85,7 +86,10 @@ class FieldPlannerConfig:
 
 
 def _vec3(v: ArrayLike, name: str) -> NDArray[np.float64]:
-    a = np.asarray(v, dtype=np.float64)
+    try:
+        a = np.asarray(v, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name} must be 3 numbers, got {type(v).__name__}") from exc
     if a.shape != (3,) or not np.isfinite(a).all():
         raise ValueError(f"{name} must be 3 finite numbers, got {v!r}")
     return a.copy()
@@ -104,6 +108,8 @@ class FieldPlanner:
 
     def __init__(self, start: ArrayLike, heading: ArrayLike, goals: ArrayLike, tolerances: ArrayLike,
                  config: FieldPlannerConfig | None = None) -> None:
+        if config is not None and not isinstance(config, FieldPlannerConfig):
+            raise TypeError(f"config must be a FieldPlannerConfig, got {type(config).__name__}")
         self.config = cfg = config or FieldPlannerConfig()
         self.start = _vec3(start, "start")
         h = _vec3(heading, "heading")
@@ -262,9 +268,12 @@ class FieldPlanner:
         return self.map.version != self._planned_version and self.time - self._planned_at >= cfg.replan_period
 
     # ---- sensing
-    def _sense(self, reading) -> None:
+    def _sense(self, reading: RangeEstimate | None) -> None:
         if reading is None:
             return
+        if not isinstance(reading, RangeEstimate):
+            raise TypeError(f"reading must be a RangeEstimate (a filtered tip-sensor reading) or None, "
+                            f"got {type(reading).__name__}")
         measured = np.asarray(reading.measured, dtype=np.bool_)
         valid = np.asarray(getattr(reading, "valid", np.ones_like(measured)), dtype=np.bool_)
         tracking = np.asarray(reading.tracking, dtype=np.bool_)
@@ -278,6 +287,7 @@ class FieldPlanner:
     def step(self, dt: float, tip: ArrayLike, direction: ArrayLike, reading, goal_index: int) -> TipCommand:
         """Advance by ``dt`` [s]; ``tip`` the measured tip [m], ``goal_index`` the goals reached so far."""
         tip = _vec3(tip, "tip")
+        _vec3(direction, "direction")  # checked, not used: the planner steers its own commanded heading
         self.time += dt
         self._sense(reading)
         self.map.mark_free(tip, self.config.repulsion.body_radius)

@@ -102,15 +102,16 @@ def _cell(x, origin, size, dims, k):  # pragma: no cover - jitted
 def nearest_distance(px, py, pz, r, P, alive, head, nxt, origin, bucket, dims):  # pragma: no cover
     """Distance [m] from (px, py, pz) to the nearest live point, exact if below ``r``, else ``r``.
 
-    ``r`` must not exceed ``bucket`` (27 buckets are scanned).
+    Scans the buckets within ``r`` (27 when ``r <= bucket``).
     """
     bx = _cell(px, origin, bucket, dims, 0)
     by = _cell(py, origin, bucket, dims, 1)
     bz = _cell(pz, origin, bucket, dims, 2)
+    m = int(math.ceil(r / bucket))
     best = r * r
-    for i in range(max(bx - 1, 0), min(bx + 2, dims[0])):
-        for j in range(max(by - 1, 0), min(by + 2, dims[1])):
-            for k in range(max(bz - 1, 0), min(bz + 2, dims[2])):
+    for i in range(max(bx - m, 0), min(bx + m + 1, dims[0])):
+        for j in range(max(by - m, 0), min(by + m + 1, dims[1])):
+            for k in range(max(bz - m, 0), min(bz + m + 1, dims[2])):
                 q = head[i, j, k]
                 while q >= 0:
                     if alive[q]:
@@ -122,6 +123,84 @@ def nearest_distance(px, py, pz, r, P, alive, head, nxt, origin, bucket, dims): 
                             best = d2
                     q = nxt[q]
     return math.sqrt(best)
+
+
+@numba.njit(cache=True)
+def _clear_bucket(i, j, k, ox, oy, oz, dx, dy, dz, s0, s1, clear_r, P, alive, head, nxt):  # pragma: no cover
+    """Remove the live points of bucket (i, j, k) within ``clear_r`` of the ray between ``s0`` and ``s1``."""
+    removed = 0
+    q = head[i, j, k]
+    while q >= 0:
+        if alive[q]:
+            wx = P[q, 0] - ox
+            wy = P[q, 1] - oy
+            wz = P[q, 2] - oz
+            a = wx * dx + wy * dy + wz * dz
+            if s0 < a < s1:
+                lx = wx - a * dx
+                ly = wy - a * dy
+                lz = wz - a * dz
+                if lx * lx + ly * ly + lz * lz < clear_r * clear_r:
+                    alive[q] = False
+                    removed += 1
+        q = nxt[q]
+    return removed
+
+
+@numba.njit(cache=True)
+def _clear_along(ox, oy, oz, dx, dy, dz, s0, s1, clear_r, P, alive, head, nxt, origin, bucket,
+                 dims):  # pragma: no cover - jitted
+    """Remove the points within ``clear_r`` of the ray segment [s0, s1]: every bucket the segment crosses
+    (a 3D DDA, Amanatides and Woo 1987), and its neighbours when the ray passes within ``clear_r`` of them,
+    conservatively: the 27 around each crossed bucket."""
+    removed = 0
+    px, py, pz = ox + s0 * dx, oy + s0 * dy, oz + s0 * dz
+    i, j, k = _cell(px, origin, bucket, dims, 0), _cell(py, origin, bucket, dims, 1), _cell(pz, origin, bucket, dims, 2)
+    step = np.zeros(3, dtype=np.int64)
+    tmax = np.full(3, np.inf)
+    tdelta = np.full(3, np.inf)
+    d = (dx, dy, dz)
+    p = (px, py, pz)
+    idx = (i, j, k)
+    for c in range(3):
+        if d[c] > 1e-12:
+            step[c] = 1
+            tmax[c] = (origin[c] + (idx[c] + 1) * bucket - p[c]) / d[c]
+            tdelta[c] = bucket / d[c]
+        elif d[c] < -1e-12:
+            step[c] = -1
+            tmax[c] = (origin[c] + idx[c] * bucket - p[c]) / d[c]
+            tdelta[c] = -bucket / d[c]
+    t = 0.0
+    length = s1 - s0
+    while True:
+        for a in range(max(i - 1, 0), min(i + 2, dims[0])):
+            for b in range(max(j - 1, 0), min(j + 2, dims[1])):
+                for cc in range(max(k - 1, 0), min(k + 2, dims[2])):
+                    removed += _clear_bucket(a, b, cc, ox, oy, oz, dx, dy, dz, s0, s1, clear_r, P, alive, head,
+                                             nxt)
+        c = 0
+        if tmax[1] < tmax[c]:
+            c = 1
+        if tmax[2] < tmax[c]:
+            c = 2
+        t = tmax[c]
+        if t > length:
+            break
+        tmax[c] += tdelta[c]
+        if c == 0:
+            i += step[0]
+            if i < 0 or i >= dims[0]:
+                break
+        elif c == 1:
+            j += step[1]
+            if j < 0 or j >= dims[1]:
+                break
+        else:
+            k += step[2]
+            if k < 0 or k >= dims[2]:
+                break
+    return removed
 
 
 @numba.njit(cache=True)
@@ -149,30 +228,8 @@ def _carve(origins, dirs, starts, ends, free, forigin, fcell, fdims, P, alive, h
         e_clear = e - clear_back
         if clear_r <= 0.0 or e_clear <= starts[r]:
             continue
-        s = starts[r]
-        while s < e_clear:
-            x = ox + s * dx
-            y = oy + s * dy
-            z = oz + s * dz
-            bx = _cell(x, borigin, bucket, bdims, 0)
-            by = _cell(y, borigin, bucket, bdims, 1)
-            bz = _cell(z, borigin, bucket, bdims, 2)
-            q = head[bx, by, bz]
-            while q >= 0:
-                if alive[q]:
-                    wx = P[q, 0] - ox
-                    wy = P[q, 1] - oy
-                    wz = P[q, 2] - oz
-                    a = wx * dx + wy * dy + wz * dz
-                    if starts[r] < a < e_clear:
-                        lx = wx - a * dx
-                        ly = wy - a * dy
-                        lz = wz - a * dz
-                        if lx * lx + ly * ly + lz * lz < clear_r * clear_r:
-                            alive[q] = False
-                            removed += 1
-                q = nxt[q]
-            s += 0.5 * bucket
+        removed += _clear_along(ox, oy, oz, dx, dy, dz, starts[r], e_clear, clear_r, P, alive, head, nxt, borigin,
+                                bucket, bdims)
     return removed
 
 
@@ -362,9 +419,9 @@ class SensedMap:
         _mark_ball(self.free, self.origin, self.config.free_cell, self.free_dims, c[0], c[1], c[2], radius)
 
     def distance(self, p: ArrayLike, r: float | None = None) -> float:
-        """Distance [m] from ``p`` to the nearest surface point (exact below ``r``, default ``bucket``)."""
+        """Distance [m] from ``p`` to the nearest surface point (exact below ``r``, default ``bucket``, else ``r``)."""
         q = np.asarray(p, dtype=np.float64)
-        rr = self.config.bucket if r is None else min(float(r), self.config.bucket)
+        rr = self.config.bucket if r is None else float(r)
         return float(nearest_distance(q[0], q[1], q[2], rr, *self.arrays()))
 
     def is_seen_free(self, p: ArrayLike) -> bool:

@@ -48,6 +48,9 @@ __all__ = ["NO_PATH", "PARTIAL", "REACHED", "Plan", "SearchConfig", "search", "s
 
 REACHED, PARTIAL, NO_PATH = 0, 1, 2
 
+_CHORD_FRACTIONS = (1.0 / 6.0, 2.0 / 6.0, 0.5, 4.0 / 6.0, 5.0 / 6.0)
+"""Where along the last link (a 0.2 m chord) its clearance is checked: every 3.3 cm."""
+
 
 @dataclass(frozen=True)
 class SearchConfig:
@@ -214,8 +217,9 @@ def _heuristic(px, py, pz, hx, hy, hz, k, k_nav, goals, reach, rest, nav, nav_or
                radius):  # pragma: no cover - jitted
     """Cost-to-go estimate: the larger of the navigation function (obstacles, no curvature) for goal
     ``k_nav`` (the straight distance for later goals) and the turn-then-straight length (curvature,
-    no obstacles), plus the distances between the remaining goals.  ``k_nav < 0``: a lower bound on
-    the length to go (no navigation function, no estimate inside the turning circle)."""
+    no obstacles), plus the distances between the remaining goals.  ``k_nav = -1``: a lower bound on
+    the length to go (no navigation function, no estimate inside the turning circle); ``-2``: the same
+    without the navigation function but with that estimate."""
     if k >= goals.shape[0]:
         return 0.0
     gx, gy, gz = goals[k, 0], goals[k, 1], goals[k, 2]
@@ -229,7 +233,7 @@ def _heuristic(px, py, pz, hx, hy, hz, k, k_nav, goals, reach, rest, nav, nav_or
             v = nav[i, j, m] - 0.87 * nav_cell
             if v > d:
                 d = v
-    c = turn_then_straight(px, py, pz, hx, hy, hz, gx, gy, gz, radius, k_nav < 0) - reach[k]
+    c = turn_then_straight(px, py, pz, hx, hy, hz, gx, gy, gz, radius, k_nav == -1) - reach[k]
     if c > d:
         d = c
     return (d if d > 0.0 else 0.0) + rest[k]
@@ -333,7 +337,7 @@ def _body_clear(qx, qy, qz, node, NP, NPAR, hist, L, r_link, r_arm, line, pts, P
     m = _chain(line, n, L, 7, pts)
     if m < 7:
         return True
-    for f in (0.25, 0.5, 0.75):
+    for f in _CHORD_FRACTIONS:
         x = pts[0, 0] + f * (qx - pts[0, 0])
         y = pts[0, 1] + f * (qy - pts[0, 1])
         z = pts[0, 2] + f * (qz - pts[0, 2])
@@ -394,8 +398,9 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
     h_start = _heuristic(p0[0], p0[1], p0[2], h0[0], h0[1], h0[2], k0, k0, goals, reach, rest, nav, nav_origin,
                          nav_cell, radius)
     heap = [(h_start * eps, 0)]
-    # the length bound: the straight / turn-then-straight length to go (no obstacles: a lower bound)
-    len_start = _heuristic(p0[0], p0[1], p0[2], h0[0], h0[1], h0[2], k0, -1, goals, reach, rest, nav, nav_origin,
+    # the length bound, from the turn-then-straight estimate at the start (which for a goal inside the
+    # turning circle allows a loop); states are pruned against it by a lower bound on their length to go
+    len_start = _heuristic(p0[0], p0[1], p0[2], h0[0], h0[1], h0[2], k0, -2, goals, reach, rest, nav, nav_origin,
                            nav_cell, radius)
     bound = cfg[14] * len_start + cfg[15]
     best_node = 0
@@ -429,6 +434,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
             ok = True
             s_end = step
             ds = step / n_samp
+            length = NL[node]
             for j in range(1, n_samp + 1):
                 s = j * ds
                 qx, qy, qz, _, _, _ = _arc(px, py, pz, hx, hy, hz, nx, ny, nz, kap, s)
@@ -436,11 +442,19 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
                         or qz > box_hi[2]:
                     ok = False
                     break
-                rb = r_start if g + s < relax else rep[0]
+                rb = r_start if length + s < relax else rep[0]
                 c = cost_rate(qx, qy, qz, rb, rep, P, alive, head, nxt, origin, bucket, bdims, free, fcell, fdims)
                 if c == BLOCKED:
                     ok = False
                     break
+                # the body: the last link is a straight chord behind the tip, inside the bends of the path
+                # (checked every other sample and at the end; the flange and the arm's start with it)
+                if j % 2 == 0 or j == n_samp:
+                    rb = r_start if length + s < relax + link else rep[0]
+                    if not _body_clear(qx, qy, qz, node, NP, NPAR, hist, link, rb, r_arm, line, chain_pts, P, alive,
+                                       head, nxt, origin, bucket, bdims):
+                        ok = False
+                        break
                 cost += ds * (1.0 + c)
                 while kk < n_goals:
                     gx = goals[kk, 0] - qx
@@ -456,14 +470,12 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
             if not ok:
                 continue
             g2 = g + cost + w_turn * step * kap / kappa_max
-            if g + s_end > max_len:
+            if length + s_end > max_len:
                 continue
             qx, qy, qz, tx, ty, tz = _arc(px, py, pz, hx, hy, hz, nx, ny, nz, kap, s_end)
-            # the body: the last link is a straight chord behind the tip, inside the bends of the path
-            rb = r_start if g + s_end < relax + link else rep[0]
-            if not _body_clear(qx, qy, qz, node, NP, NPAR, hist, link, rb, r_arm, line, chain_pts, P, alive, head,
-                               nxt, origin, bucket, bdims):
-                continue
+            if s_end < step and not _body_clear(qx, qy, qz, node, NP, NPAR, hist, link, rep[0], r_arm, line, chain_pts,
+                                                P, alive, head, nxt, origin, bucket, bdims):
+                continue  # the goal was passed between two body checks: check where the path ends
             tn = math.sqrt(tx * tx + ty * ty + tz * tz)
             tx /= tn
             ty /= tn
@@ -521,7 +533,7 @@ def _path_clear(pts, hist, every, link, r_block, r_arm, P, alive, head, nxt, ori
         c = _chain(line, m, link, 7, chain_pts)
         if c < 7:
             continue
-        for f in (0.25, 0.5, 0.75):
+        for f in _CHORD_FRACTIONS:
             x = chain_pts[0, 0] + f * (pts[i, 0] - chain_pts[0, 0])
             y = chain_pts[0, 1] + f * (pts[i, 1] - chain_pts[0, 1])
             z = chain_pts[0, 2] + f * (pts[i, 2] - chain_pts[0, 2])

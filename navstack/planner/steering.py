@@ -7,9 +7,10 @@ heading the plan's tangent.  What this module decides is the speed ``v``:
 * ``v_max`` in the open, falling linearly to ``v_min`` as the tip's clearance to the nearest sensed
   surface (:meth:`SensedMap.distance` minus the tip radius) falls from ``slow_clearance`` to
   ``stop_clearance`` (the repulsion as a brake: the sensors get more readings per centimetre
-  where it matters), and to zero below ``stop_clearance`` when the plan ahead comes closer still;
-* at most ``sqrt(2 accel remaining)``, so the tip stops at the end of the plan (the final goal, or
-  the end of a partial plan) without overshoot; it changes by at most ``accel dt`` per step;
+  where it matters), and held at ``v_min`` below it (the plan keeps its clearance; turning needs motion);
+* at most what still stops on the end of the plan (the final goal, or the end of a partial plan) when
+  slowing by ``accel dt`` per step (about ``sqrt(2 accel remaining)``), without overshoot; it changes by
+  at most ``accel dt`` per step (on the last step a little more, to land on the end);
 * scaled down while the actual tip lags the command by more than ``max_lead / 2`` (zero at
   ``max_lead``): the command never runs away from a robot that cannot follow.
 
@@ -78,19 +79,22 @@ class PlanFollower:
         """The commanded position and heading now."""
         return self.plan.state(self.s)
 
-    def target_speed(self, clearance: float, lag: float) -> float:
+    def target_speed(self, clearance: float, lag: float, dt: float) -> float:
         """The speed the rules above allow, from the tip's ``clearance`` [m] and the tip's ``lag`` [m]."""
         cfg = self.config
         f = (clearance - cfg.stop_clearance) / (cfg.slow_clearance - cfg.stop_clearance)
         v = cfg.v_min + (cfg.v_max - cfg.v_min) * min(max(f, 0.0), 1.0)
-        v = min(v, math.sqrt(2.0 * cfg.accel * max(self.remaining, 0.0)))
+        # the fastest speed from which steps slowing by accel * dt still stop on the plan's end:
+        # remaining - v dt >= v (v - a dt) / (2 a), i.e. v^2 + a dt v <= 2 a remaining
+        adt = cfg.accel * dt
+        v = min(v, 0.5 * (math.sqrt(adt * adt + 8.0 * cfg.accel * max(self.remaining, 0.0)) - adt))
         v *= min(max((cfg.max_lead - lag) / (0.5 * cfg.max_lead), 0.0), 1.0)
         return v
 
     def advance(self, dt: float, clearance: float, lag: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Move the command by one period ``dt`` [s]; return the new position and velocity [m/s]."""
         cfg = self.config
-        target = self.target_speed(clearance, lag)
+        target = self.target_speed(clearance, lag, dt)
         self.v = min(max(target, self.v - cfg.accel * dt), self.v + cfg.accel * dt)
         if self.v < 1e-4 * cfg.v_max:
             self.v = 0.0
