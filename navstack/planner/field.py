@@ -174,7 +174,7 @@ class FieldPlanner:
                           history=history, nav=self._navigation(p, k, True))  # the map has grown since
         return plan
 
-    def _history(self, end: float, length: float, spacing: float = 0.01) -> NDArray[np.float64]:
+    def _history(self, end: float, length: float, spacing: float = 0.02) -> NDArray[np.float64]:
         """The commanded path's ``length`` [m] up to arc length ``end``, every ``spacing`` [m], oldest first."""
         s = np.append(np.arange(max(end - length, 0.0), end - 0.5 * spacing, spacing), end)
         return np.array([self.path.point_at(x)[0] for x in s])

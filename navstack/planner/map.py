@@ -59,7 +59,7 @@ class MapConfig:
     """
 
     voxel: float = 0.01
-    bucket: float = 0.08
+    bucket: float = 0.04
     free_cell: float = 0.02
     margin: float = 0.7
     average: int = 8

@@ -329,13 +329,14 @@ def _chain(line, n, L, count, pts):  # pragma: no cover - jitted
 
 @numba.njit(cache=True)
 def _body_clear(qx, qy, qz, node, NP, NPAR, hist, L, r_link, r_arm, line, pts, P, alive, head, nxt, origin,
-                bucket, bdims):  # pragma: no cover - jitted
+                bucket, bdims, arm):  # pragma: no cover - jitted
     """The body behind the tip at q: the last link (a straight chord, inside the bends of the path) keeps
-    ``r_link`` from every surface point, and the flange (the sixth chord point) and the point one link
-    behind it, where the arm begins, keep ``r_arm``."""
-    n = _backward(qx, qy, qz, node, NP, NPAR, hist, 7.5 * L, line)
-    m = _chain(line, n, L, 7, pts)
-    if m < 7:
+    ``r_link`` from every surface point, and with ``arm`` the flange (the sixth chord point) and the point
+    one link behind it, where the arm begins, keep ``r_arm``."""
+    count = 7 if arm else 1
+    n = _backward(qx, qy, qz, node, NP, NPAR, hist, (count + 0.5) * L, line)
+    m = _chain(line, n, L, count, pts)
+    if m < count:
         return True
     for f in _CHORD_FRACTIONS:
         x = pts[0, 0] + f * (qx - pts[0, 0])
@@ -343,10 +344,11 @@ def _body_clear(qx, qy, qz, node, NP, NPAR, hist, L, r_link, r_arm, line, pts, P
         z = pts[0, 2] + f * (qz - pts[0, 2])
         if nearest_distance(x, y, z, r_link, P, alive, head, nxt, origin, bucket, bdims) < r_link:
             return False
-    for i in (5, 6):
-        if nearest_distance(pts[i, 0], pts[i, 1], pts[i, 2], r_arm, P, alive, head, nxt, origin, bucket,
-                            bdims) < r_arm:
-            return False
+    if arm:
+        for i in (5, 6):
+            if nearest_distance(pts[i, 0], pts[i, 1], pts[i, 2], r_arm, P, alive, head, nxt, origin, bucket,
+                                bdims) < r_arm:
+                return False
     return True
 
 
@@ -448,11 +450,11 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
                     ok = False
                     break
                 # the body: the last link is a straight chord behind the tip, inside the bends of the path
-                # (checked every other sample and at the end; the flange and the arm's start with it)
+                # (checked every other sample and at the end; the flange and the arm's start at the end)
                 if j % 2 == 0 or j == n_samp:
                     rb = r_start if length + s < relax + link else rep[0]
                     if not _body_clear(qx, qy, qz, node, NP, NPAR, hist, link, rb, r_arm, line, chain_pts, P, alive,
-                                       head, nxt, origin, bucket, bdims):
+                                       head, nxt, origin, bucket, bdims, j == n_samp):
                         ok = False
                         break
                 cost += ds * (1.0 + c)
@@ -474,7 +476,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
                 continue
             qx, qy, qz, tx, ty, tz = _arc(px, py, pz, hx, hy, hz, nx, ny, nz, kap, s_end)
             if s_end < step and not _body_clear(qx, qy, qz, node, NP, NPAR, hist, link, rep[0], r_arm, line, chain_pts,
-                                                P, alive, head, nxt, origin, bucket, bdims):
+                                                P, alive, head, nxt, origin, bucket, bdims, True):
                 continue  # the goal was passed between two body checks: check where the path ends
             tn = math.sqrt(tx * tx + ty * ty + tz * tz)
             tx /= tn
