@@ -99,8 +99,8 @@ def u_trap_world() -> World:
     back = box_dict((mouth + depth + wall / 2, y0, zc), (wall / 2, half_w + wall, hz))
     left = box_dict((mouth + depth / 2, y0 - half_w - wall / 2, zc), (depth / 2, wall / 2, hz))
     right = box_dict((mouth + depth / 2, y0 + half_w + wall / 2, zc), (depth / 2, wall / 2, hz))
-    goal = np.array([mouth + depth + wall + 0.35, y0, z0 + 0.12])
-    via = np.array([[mouth + 0.05, y0, z0 + 0.22], [mouth + depth, y0, z0 + 0.22], goal])
+    goal = np.array([mouth + depth + wall + 0.22, y0, z0 + 0.08])
+    via = np.array([[mouth - 0.02, y0, z0 + 0.2], [mouth + depth + wall / 2, y0, z0 + 0.2], goal])
     desc = ("A U-shaped trap of three boxes (back wall and two side walls, open upwards, downwards and "
             "towards the robot) straight ahead of the tip; the goal is behind the back wall.  Heading "
             "straight for the goal leads into the U; the way round is over the top (reference via points in "
