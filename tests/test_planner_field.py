@@ -254,11 +254,6 @@ def test_a_pocket_entered_by_mistake_is_backed_out_of_along_the_commanded_path(p
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=(
-    "since 7a475cd (closed-set cells 2 cm, 6 deg) FieldPlanner stalls in the pocket: cup open towards -x (0.24 m "
-    "square inside, mouth x = 0.6, back x = 1.1), goal (1.6, 0, 0), start at the origin heading +x, seed 0: one "
-    "retreat from x = 0.851 to 0.801, forward again, then stalled at step 506 at x = 0.838 (no branch point "
-    "gives a REACHED plan); at e2ccc7c it backed out 3 times and reached the goal round the pocket in 64.6 s"))
 def test_after_backing_out_of_the_pocket_the_goal_is_reached_round_it(pocket_flight):
     f = pocket_flight
     assert f.reached and not f.stalled
@@ -268,10 +263,6 @@ def test_after_backing_out_of_the_pocket_the_goal_is_reached_round_it(pocket_fli
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=(
-    "since 7a475cd (closed-set cells 2 cm, 6 deg) FieldPlanner no longer gives up on a fully enclosed goal: "
-    "boxed goal at (1, 0, 0), walls 0.2 m from it, start at the origin heading +x, seed 0: after 120 s (3600 "
-    "steps, 5 retreats) neither stalled nor touching (105 mm); at e2ccc7c it stalled after 11.7 s"))
 def test_a_fully_enclosed_goal_ends_stalled_without_touching():
     f = _fly(boxes=_enclosure([1.0, 0.0, 0.0]), goals=[(1.0, 0.0, 0.0)], t_max=120.0)
     print(f"\nenclosed goal: stalled {f.stalled} after {f.steps * DT:.1f} s, {f.planner.retreats} retreats, "

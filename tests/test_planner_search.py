@@ -423,13 +423,6 @@ def test_a_way_past_a_post_that_keeps_the_arm_clear_exists():
     assert plan.length < 1.6  # well within every length bound
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "search does not find a way that keeps the arm clear of a post beside the way: post at x = 0.3, y = 0.05 "
-    "(points every 1 cm along z), start at the origin heading +x, goal (1.6, 0, 0), seen free: PARTIAL after "
-    "its whole budget (8000 expansions; also with 100000), though the 1.59 m S-curve plan of the previous test "
-    "satisfies every rule (probably: the arm check fails only 1.2 m after the post, and the closed set, which merges "
-    "states by cell and heading but not by the body behind them, has by then closed the states the swing "
-    "would reach)"))
 def test_the_search_finds_a_way_that_keeps_the_arm_clear_of_a_post():
     smap, goal = _post_beside_the_way()
     plan = _plan(smap, goal)

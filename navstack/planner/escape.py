@@ -9,8 +9,8 @@ and forward tangent), nearest first, up to the start of the path; the first one 
 leads through every goal is the **branch point**.  The command then runs back along the path to it
 (reverse commands, :class:`navstack.retreat.Retreat`: the slithering controller drops the retracted
 part of its path memory, every joint point staying on the path), the path record is cut there, and
-the tip goes forward again on the new plan.  If no candidate has a way on, the planner gives up
-(``stalled``).
+the tip goes forward again on the new plan.  If no candidate has a way on, or the goal has cost
+``max_retreats`` retreats already, the planner gives up (``stalled``).
 
 The planner's record of its commanded tip path is a :class:`navstack.path.PathMemory` with the
 controller's vertex spacing: it records the same commands as the controller's, so a point at arc
@@ -41,6 +41,7 @@ class EscapeConfig:
         max_back: no candidate farther back than this [m].
         speed: retreat speed [m/s].
         accel: retreat acceleration [m/s^2].
+        max_retreats: retreats allowed for one goal; one more and the planner gives up (``stalled``).
     """
 
     step: float = 0.1
@@ -48,12 +49,15 @@ class EscapeConfig:
     max_back: float = 1.5
     speed: float = 0.05
     accel: float = 0.1
+    max_retreats: int = 6
 
     def __post_init__(self) -> None:
         for name in ("step", "min_back", "max_back", "speed", "accel"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
                 raise ValueError(f"EscapeConfig.{name} must be a positive number, got {v!r}")
+        if isinstance(self.max_retreats, bool) or not isinstance(self.max_retreats, int) or self.max_retreats < 0:
+            raise ValueError(f"EscapeConfig.max_retreats must be an integer >= 0, got {self.max_retreats!r}")
 
 
 def find_branch_point(path: PathMemory, plan_from: Callable[[NDArray, NDArray, float], Plan],

@@ -140,6 +140,7 @@ class FieldPlanner:
         self.retreats = 0
         self._command_goal_s = 0.0
         self._last_branch: float | None = None
+        self._goal_retreats: dict[int, int] = {}
 
     # ---- planning
     def _navigation(self, p: NDArray[np.float64], k: int, fresh: bool) -> NavigationFunction | None:
@@ -230,6 +231,10 @@ class FieldPlanner:
         return still_clear(self.map, f.plan, f.s, history, cfg.search, cfg.repulsion)
 
     def _start_escape(self, fallback: Plan | None = None) -> None:
+        if self._goal_retreats.get(self.command_goal, 0) >= self.config.escape.max_retreats:
+            self.stalled = True  # every way tried for this goal has closed: give up rather than wander
+            self.mode = "stalled"
+            return
         # a new escape soon after the last branch point must go back beyond it (no retreat cycles)
         limit = self.path.end_arc_length
         if self._last_branch is not None and limit - self._last_branch < 0.3:
@@ -244,6 +249,7 @@ class FieldPlanner:
             self.mode = "stalled"
             return
         self.retreats += 1
+        self._goal_retreats[self.command_goal] = self._goal_retreats.get(self.command_goal, 0) + 1
         s, plan = found
         self._last_branch = s
         self._pending = (s, plan)
@@ -301,7 +307,8 @@ class FieldPlanner:
             if self.retreat is not None or self.stalled:
                 return self.step_hold(dt)
         x_d, _ = self.follower.state()
-        clearance = self.map.distance(x_d) - self.config.repulsion.body_radius
+        body = self.config.repulsion.body_radius
+        clearance = self.map.distance(x_d, r=self.config.steering.slow_clearance + body) - body
         lag = float(np.linalg.norm(x_d - tip))
         p, v = self.follower.advance(dt, clearance, lag)
         self.path.record(p)
