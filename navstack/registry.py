@@ -79,6 +79,10 @@ class PlannerContext:
 
     Positions are in the world frame [m]; ``heading`` is the unit tip direction at t = 0; ``dt`` the
     control period [s]; ``config`` the trial's :class:`navstack.trial.TrialConfig` (planner parameters).
+    The robot's own shape at t = 0: ``arm`` (k, 3) points along the axes of the arm's capsules (frames
+    1..9), ``arm_radius`` [m] their radius, ``flange`` (3,) the flange J6 (frame 9), where the serpentine
+    begins.  ``dynamic``: the world declares moving obstacles (whether anything moves, never what or
+    where), so a sensing planner may forget surfaces its rays see through.
     """
 
     start: NDArray[np.float64]
@@ -87,6 +91,10 @@ class PlannerContext:
     tolerances: NDArray[np.float64]
     dt: float
     config: Any = None
+    arm: NDArray[np.float64] | None = None
+    arm_radius: float = 0.06
+    flange: NDArray[np.float64] | None = None
+    dynamic: bool = False
 
 
 PLANNERS: dict[str, PlannerEntry] = {}

@@ -67,6 +67,10 @@ class TrialConfig:
     """The tip proximity sensor (``--planner field``)."""
     field_planner: FieldPlannerConfig = field(default_factory=FieldPlannerConfig)
     """The sensing planner's parameters (``--planner field``)."""
+    forget_when_moving: bool = True
+    """In a world that declares moving obstacles, the sensing planner's map forgets the surfaces its rays see
+    through (``MapConfig.forget_moved``); in a static world it only grows (measured: forgetting there cost
+    a hard sparse truss its goal)."""
     reactive_planner: PlannerConfig = field(default_factory=PlannerConfig)
     """The previous reactive planner's parameters (``--planner reactive``)."""
     slither_mode: str = "projected"
@@ -247,6 +251,15 @@ def run_trial(
     return result
 
 
+def _axis_samples(points: np.ndarray, spacing: float) -> np.ndarray:
+    """Points every ``spacing`` [m] or closer along the polyline ``points`` (k, 3), its vertices included."""
+    out = [points[0]]
+    for a, b in zip(points[:-1], points[1:], strict=True):
+        n = max(1, int(np.ceil(np.linalg.norm(b - a) / spacing)))
+        out += [a + (b - a) * (j / n) for j in range(1, n + 1)]
+    return np.array(out)
+
+
 # ---- factories named in navstack.registry ------------------------------------------------------------
 def make_slither_controller(chain, q0, dt: float, cfg: TrialConfig):
     """The slithering controller of equation (4) (``--controller slither``)."""
@@ -265,8 +278,13 @@ def make_tip_only_controller(chain, q0, dt: float, cfg: TrialConfig):
 def make_field_planner(ctx):
     """The sensing planner (``--planner field``): map, potential, hybrid A*, steering, escape."""
     from navstack.planner.field import FieldPlanner
+    from navstack.planner.search import ArmShape
 
-    return FieldPlanner(ctx.start, ctx.heading, ctx.goals, ctx.tolerances, ctx.config.field_planner)
+    arm = None if ctx.arm is None else ArmShape(ctx.arm, ctx.flange, ctx.arm_radius)
+    fp = ctx.config.field_planner
+    if ctx.dynamic and ctx.config.forget_when_moving and not fp.map.forget_moved:
+        fp = replace(fp, map=replace(fp.map, forget_moved=True))
+    return FieldPlanner(ctx.start, ctx.heading, ctx.goals, ctx.tolerances, fp, arm=arm)
 
 
 def make_reactive_planner(ctx):
@@ -403,8 +421,11 @@ class _Simulation:
         heading0 = self.R0 @ F[20, :3, 0]
         self.rng = np.random.default_rng(seed)
         entry = PLANNERS[planner]
+        arm_frames = np.array([self._to_world(F[i, :3, 3]) for i in range(1, 10)])
         context = PlannerContext(start=tip0, heading=heading0, goals=self.goals, tolerances=self.tolerances,
-                                 dt=self.dt, config=cfg)
+                                 dt=self.dt, config=cfg, arm=_axis_samples(arm_frames, 0.05),
+                                 arm_radius=world.robot.arm_radius, flange=arm_frames[-1],
+                                 dynamic=any(getattr(o, "motion", None) is not None for o in world.obstacles))
         self.planner = load(entry.factory)(context)
         self.sensor = None
         self.estimator = None

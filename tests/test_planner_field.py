@@ -287,7 +287,7 @@ def test_field_planner_takes_no_world_or_obstacles(func):
         assert not BAD_NAME.search(prm.name), f"{func.__qualname__} takes a parameter {prm.name!r}"
         assert not BAD_TYPE.search(str(prm.annotation)), f"{func.__qualname__}.{prm.name}: {prm.annotation}"
     names = [q.name for q in params]
-    expected = (["start", "heading", "goals", "tolerances", "config"] if func is FieldPlanner
+    expected = (["start", "heading", "goals", "tolerances", "config", "arm"] if func is FieldPlanner
                 else ["dt", "tip", "direction", "reading", "goal_index"])
     assert names == expected
 

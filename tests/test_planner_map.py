@@ -16,7 +16,9 @@ from navstack.planner.map import MapConfig, SensedMap
 
 CFG = MapConfig()
 PLAIN = MapConfig(shadow_depths=())  # hits only: no shadow points behind them
-CLEARING = MapConfig(shadow_depths=(), forget_moved=True)  # rays remove the points they pass through
+# one clean pass of a ray removes a point
+ONE_PASS = MapConfig(shadow_depths=(), forget_moved=True, initial_evidence=1, max_evidence=1)
+CLEARING = ONE_PASS
 LO, HI = np.zeros(3), np.array([0.6, 0.4, 0.4])
 
 
@@ -282,11 +284,39 @@ def test_without_shadow_depths_hits_add_only_their_points():
     np.testing.assert_allclose(smap.points, [O + 0.3 * X], atol=1e-15)
 
 
-def test_by_default_rays_forget_nothing():
-    smap = _map()
+def test_without_forget_moved_rays_forget_nothing():
+    smap = _map(MapConfig(shadow_depths=(), forget_moved=False))
     smap.add_points([[0.305, 0.205, 0.195]])
-    smap.update([[0.105, 0.205, 0.195]], [X], [0.03], [0.4], [False], [True])  # straight through it
+    for _ in range(10):
+        smap.update([[0.105, 0.205, 0.195]], [X], [0.03], [0.4], [False], [True])  # straight through it
     assert smap.n_points == 1 and smap.version == 1
+
+
+def test_evidence_counts_hits_up_and_clean_passes_down_once_per_ray():
+    """A new point holds ``initial_evidence``, each further hit one more (up to ``max_evidence``), each ray
+    passing cleanly through it one less, however many buckets of the ray's neighbourhood hold it."""
+    evid = MapConfig(shadow_depths=(), forget_moved=True)  # evidence: initial 2, max 6 by default
+    smap = _map(evid)
+    assert (smap.config.initial_evidence, smap.config.max_evidence) == (2, 6)
+    o = np.array([0.105, 0.205, 0.195])
+    through = ([o - 0.0 * X], [X], [0.03], [0.4], [False], [True])
+    smap.update([o], [X], [0.03], [0.2], [True], [True])  # first seen: evidence 2
+    smap.update(*through)
+    assert smap.n_points == 1
+    smap.update(*through)
+    assert smap.n_points == 0  # two clean passes
+    # hit 8 times: evidence capped at 6, so 6 clean passes remove it and 5 do not
+    smap = _map(evid)
+    for _ in range(8):
+        smap.update([o], [X], [0.03], [0.2], [True], [True])
+    for _ in range(5):
+        smap.update(*through)
+    assert smap.n_points == 1
+    # two rays through it in one update count twice; a ray that passes 5 mm beside it (> clear_radius) not
+    smap.update([o + [0, 0.005, 0]], [X], [0.03], [0.4], [False], [True])
+    assert smap.n_points == 1
+    smap.update([o, o], [X, X], [0.03, 0.03], [0.4, 0.4], [False, False], [True, True])
+    assert smap.n_points == 0
 
 
 # ---------------------------------------------------------------------------- clearing

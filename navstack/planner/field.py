@@ -36,6 +36,7 @@ from navstack.planner.potential import NavigationFunction, Repulsion, navigation
 from navstack.planner.search import (
     NO_PATH,
     REACHED,
+    ArmShape,
     Plan,
     SearchConfig,
     navigation_region,
@@ -104,12 +105,17 @@ class FieldPlanner:
         goals: (k, 3) goals [m], in order.
         tolerances: (k,) goal tolerances [m].
         config: parameters (``None`` = defaults).
+        arm: the robot's own arm at the start (its capsules' axis, the flange, the radius), so paths that
+            would carry it into a sensed surface are not planned; ``None``: only the flange is checked.
     """
 
     def __init__(self, start: ArrayLike, heading: ArrayLike, goals: ArrayLike, tolerances: ArrayLike,
-                 config: FieldPlannerConfig | None = None) -> None:
+                 config: FieldPlannerConfig | None = None, arm: ArmShape | None = None) -> None:
         if config is not None and not isinstance(config, FieldPlannerConfig):
             raise TypeError(f"config must be a FieldPlannerConfig, got {type(config).__name__}")
+        if arm is not None and not isinstance(arm, ArmShape):
+            raise TypeError(f"arm must be an ArmShape or None, got {type(arm).__name__}")
+        self.arm = arm
         self.config = cfg = config or FieldPlannerConfig()
         self.start = _vec3(start, "start")
         h = _vec3(heading, "heading")
@@ -169,10 +175,10 @@ class FieldPlanner:
         end = self.path.end_arc_length if at is None else at
         history = self._history(end, 7.5 * cfg.search.link_length)
         plan = search(self.map, p, h, self.goals, self.tolerances, k, scfg, cfg.repulsion, history=history,
-                      nav=self._navigation(p, k, False))
+                      nav=self._navigation(p, k, False), arm=self.arm)
         if plan.status != REACHED and self._nav is not None and self._nav[1] != self.map.version:
             plan = search(self.map, p, h, self.goals, self.tolerances, k, scfg, cfg.repulsion,
-                          history=history, nav=self._navigation(p, k, True))  # the map has grown since
+                          history=history, nav=self._navigation(p, k, True), arm=self.arm)  # the map has grown
         return plan
 
     def _history(self, end: float, length: float, spacing: float = 0.02) -> NDArray[np.float64]:
@@ -228,7 +234,7 @@ class FieldPlanner:
             return False
         cfg = self.config
         history = self._history(self.path.end_arc_length, 7.5 * cfg.search.link_length)
-        return still_clear(self.map, f.plan, f.s, history, cfg.search, cfg.repulsion)
+        return still_clear(self.map, f.plan, f.s, history, cfg.search, cfg.repulsion, self.arm)
 
     def _start_escape(self, fallback: Plan | None = None) -> None:
         if self._goal_retreats.get(self.command_goal, 0) >= self.config.escape.max_retreats:

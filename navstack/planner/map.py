@@ -18,11 +18,16 @@ has not seen), but unseen space *next to a sensed surface* is probably more of t
 the rays sample a wall a few centimetres apart, and the gaps between the samples are not
 openings until a ray has gone through them (see :mod:`navstack.planner.potential`).
 
-With ``forget_moved`` (off by default), a ray that passes cleanly through a stored point (well before
-its own end, within ``clear_radius`` of its line) removes it, so surfaces that moved are forgotten.
-It is off because rays that graze a surface erase its noisy samples (measured on a slot rack: the
-tip kept re-entering a gap whose sides had been erased, 60 s timeout; without erasing, reached in
-22.6 s): a static world is better served by a map that only grows.
+**Forgetting** (``forget_moved``): surfaces that move (spec 2b) must not stay in the map where they
+were.  Each point carries evidence, as an occupancy map's log-odds: ``initial_evidence`` when first
+seen, one more per further hit (up to ``max_evidence``), one less each time a ray passes cleanly
+through it (within ``clear_radius`` of its line, well before the ray's own end); at zero it is
+removed.  Removing a point at the first clean pass instead erased the noisy samples of static surfaces
+that rays graze (measured on a slot rack: the tip kept re-entering a gap whose sides had been erased,
+60 s timeout, against 22.6 s without erasing); a static surface keeps being hit, and keeps its points.
+Off by default: even so, forgetting in a static world costs more than it buys (a hard sparse truss:
+reached in 36.5 s without, timeout with); the trial turns it on in worlds that declare moving
+obstacles (``TrialConfig.forget_when_moving``).
 
 Cost: one update per control step, O(rays x range / free_cell) cell writes; queries O(27 x
 points per bucket).  Every kernel is ``numba.njit``.
@@ -51,7 +56,9 @@ class MapConfig:
         margin: the map covers the box around the start and the goals grown by this.
         average: samples in a voxel's running mean.
         hit_backoff: a ray that hits marks free space only up to this before its hit.
-        forget_moved: rays remove the stored points they pass through (moving obstacles).
+        forget_moved: rays that pass through stored points count against them (moving obstacles).
+        initial_evidence, max_evidence: a new point holds ``initial_evidence``, each further hit one more
+            (up to ``max_evidence``), each clean pass of a ray one less; at zero it is removed.
         shadow_depths: depths behind each hit [m] where shadow points are put (empty: none).
         clear_radius: with ``forget_moved``, a ray passing this close to a stored point, before its own
             end, removes it.
@@ -67,6 +74,8 @@ class MapConfig:
     clear_radius: float = 0.004
     clear_backoff: float = 0.05
     forget_moved: bool = False
+    initial_evidence: int = 2
+    max_evidence: int = 6
     shadow_depths: tuple[float, ...] = (0.015, 0.03, 0.045)
 
     def __post_init__(self) -> None:
@@ -83,8 +92,10 @@ class MapConfig:
             raise ValueError(f"MapConfig.shadow_depths must be a tuple of positive lengths [m], got {depths!r}")
         if not isinstance(self.forget_moved, bool):
             raise ValueError(f"MapConfig.forget_moved must be a bool, got {self.forget_moved!r}")
-        if isinstance(self.average, bool) or not isinstance(self.average, int) or self.average < 1:
-            raise ValueError(f"MapConfig.average must be an integer >= 1, got {self.average!r}")
+        for name in ("average", "initial_evidence", "max_evidence"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise ValueError(f"MapConfig.{name} must be an integer >= 1, got {v!r}")
 
 
 # ------------------------------------------------------------------------------------------ kernels
@@ -126,8 +137,11 @@ def nearest_distance(px, py, pz, r, P, alive, head, nxt, origin, bucket, dims): 
 
 
 @numba.njit(cache=True)
-def _clear_bucket(i, j, k, ox, oy, oz, dx, dy, dz, s0, s1, clear_r, P, alive, head, nxt):  # pragma: no cover
-    """Remove the live points of bucket (i, j, k) within ``clear_r`` of the ray between ``s0`` and ``s1``."""
+def _clear_bucket(i, j, k, ox, oy, oz, dx, dy, dz, s0, s1, clear_r, P, alive, evidence, mark, tag, head,
+                  nxt):  # pragma: no cover
+    """Count a clean pass against the live points of bucket (i, j, k) within ``clear_r`` of the ray between
+    ``s0`` and ``s1``: one less evidence each, once per ray (``mark[q] == tag`` once counted for the ray
+    ``tag``: the DDA visits a bucket up to 27 times); a point out of evidence is removed.  Returns removals."""
     removed = 0
     q = head[i, j, k]
     while q >= 0:
@@ -140,16 +154,19 @@ def _clear_bucket(i, j, k, ox, oy, oz, dx, dy, dz, s0, s1, clear_r, P, alive, he
                 lx = wx - a * dx
                 ly = wy - a * dy
                 lz = wz - a * dz
-                if lx * lx + ly * ly + lz * lz < clear_r * clear_r:
-                    alive[q] = False
-                    removed += 1
+                if lx * lx + ly * ly + lz * lz < clear_r * clear_r and mark[q] != tag:
+                    mark[q] = tag
+                    evidence[q] -= 1
+                    if evidence[q] <= 0:
+                        alive[q] = False
+                        removed += 1
         q = nxt[q]
     return removed
 
 
 @numba.njit(cache=True)
-def _clear_along(ox, oy, oz, dx, dy, dz, s0, s1, clear_r, P, alive, head, nxt, origin, bucket,
-                 dims):  # pragma: no cover - jitted
+def _clear_along(ox, oy, oz, dx, dy, dz, s0, s1, clear_r, P, alive, evidence, mark, tag, head, nxt, origin,
+                 bucket, dims):  # pragma: no cover - jitted
     """Remove the points within ``clear_r`` of the ray segment [s0, s1]: every bucket the segment crosses
     (a 3D DDA, Amanatides and Woo 1987), and its neighbours when the ray passes within ``clear_r`` of them,
     conservatively: the 27 around each crossed bucket."""
@@ -177,8 +194,8 @@ def _clear_along(ox, oy, oz, dx, dy, dz, s0, s1, clear_r, P, alive, head, nxt, o
         for a in range(max(i - 1, 0), min(i + 2, dims[0])):
             for b in range(max(j - 1, 0), min(j + 2, dims[1])):
                 for cc in range(max(k - 1, 0), min(k + 2, dims[2])):
-                    removed += _clear_bucket(a, b, cc, ox, oy, oz, dx, dy, dz, s0, s1, clear_r, P, alive, head,
-                                             nxt)
+                    removed += _clear_bucket(a, b, cc, ox, oy, oz, dx, dy, dz, s0, s1, clear_r, P, alive, evidence,
+                                             mark, tag, head, nxt)
         c = 0
         if tmax[1] < tmax[c]:
             c = 1
@@ -204,8 +221,8 @@ def _clear_along(ox, oy, oz, dx, dy, dz, s0, s1, clear_r, P, alive, head, nxt, o
 
 
 @numba.njit(cache=True)
-def _carve(origins, dirs, starts, ends, free, forigin, fcell, fdims, P, alive, head, nxt, borigin, bucket,
-           bdims, clear_r, clear_back):  # pragma: no cover - jitted
+def _carve(origins, dirs, starts, ends, free, forigin, fcell, fdims, P, alive, evidence, mark, tag0, head, nxt,
+           borigin, bucket, bdims, clear_r, clear_back):  # pragma: no cover - jitted
     """Mark the cells along each ray [start, end) seen free; remove points the ray passes through."""
     step = 0.5 * fcell
     removed = 0
@@ -228,8 +245,8 @@ def _carve(origins, dirs, starts, ends, free, forigin, fcell, fdims, P, alive, h
         e_clear = e - clear_back
         if clear_r <= 0.0 or e_clear <= starts[r]:
             continue
-        removed += _clear_along(ox, oy, oz, dx, dy, dz, starts[r], e_clear, clear_r, P, alive, head, nxt, borigin,
-                                bucket, bdims)
+        removed += _clear_along(ox, oy, oz, dx, dy, dz, starts[r], e_clear, clear_r, P, alive, evidence, mark,
+                                tag0 + r, head, nxt, borigin, bucket, bdims)
     return removed
 
 
@@ -289,6 +306,9 @@ class SensedMap:
         self.free = np.zeros(tuple(self.free_dims), dtype=np.uint8)
         self._P = np.zeros((1024, 3))
         self._count = np.zeros(1024, dtype=np.int64)
+        self._evidence = np.zeros(1024, dtype=np.int64)
+        self._mark = np.full(1024, -1, dtype=np.int64)
+        self._rays = 0  # rays cast into the map so far: each ray's tag in the clearing kernels
         self._alive = np.zeros(1024, dtype=np.bool_)
         self._next = np.full(1024, -1, dtype=np.int64)
         self._shadow = np.zeros(1024, dtype=np.bool_)
@@ -332,7 +352,8 @@ class SensedMap:
 
     def _grow(self) -> None:
         cap = 2 * self._P.shape[0]
-        for name, fill in (("_P", 0.0), ("_count", 0), ("_alive", False), ("_next", -1), ("_shadow", False)):
+        for name, fill in (("_P", 0.0), ("_count", 0), ("_evidence", 0), ("_mark", -1), ("_alive", False),
+                           ("_next", -1), ("_shadow", False)):
             old = getattr(self, name)
             new = np.full((cap,) + old.shape[1:], fill, dtype=old.dtype)
             new[: self._n] = old[: self._n]
@@ -359,6 +380,7 @@ class SensedMap:
             if idx is not None and self._alive[idx]:
                 c = min(int(self._count[idx]) + 1, cfg.average)
                 self._count[idx] = c
+                self._evidence[idx] = min(int(self._evidence[idx]) + 1, cfg.max_evidence)
                 step = (p - self._P[idx]) / c
                 self._P[idx] += step
                 if float(step @ step) > 1e-6:
@@ -376,6 +398,7 @@ class SensedMap:
                 self._shadow[idx] = shadow
             self._P[idx] = p
             self._count[idx] = 1
+            self._evidence[idx] = cfg.initial_evidence
             self._alive[idx] = True
             changed.append(p.copy())
         if changed:
@@ -399,9 +422,12 @@ class SensedMap:
         use = np.asarray(informative, dtype=np.bool_) & np.isfinite(rg)
         ends = np.where(h, rg - self.config.hit_backoff, rg)
         cfg = self.config
+        n_use = int(np.count_nonzero(use))
         removed = _carve(o[use], d[use], st[use], ends[use], self.free, self.origin, cfg.free_cell,
-                         self.free_dims, self._P, self._alive, self.head, self._next, self.origin, cfg.bucket,
-                         self.bucket_dims, cfg.clear_radius if cfg.forget_moved else 0.0, cfg.clear_backoff)
+                         self.free_dims, self._P, self._alive, self._evidence, self._mark, self._rays, self.head,
+                         self._next, self.origin, cfg.bucket, self.bucket_dims,
+                         cfg.clear_radius if cfg.forget_moved else 0.0, cfg.clear_backoff)
+        self._rays += n_use
         if removed:
             self.version += 1
         m = use & h

@@ -44,7 +44,7 @@ from navstack.planner.potential import (
     navigation_function,
 )
 
-__all__ = ["NO_PATH", "PARTIAL", "REACHED", "Plan", "SearchConfig", "search", "still_clear"]
+__all__ = ["NO_PATH", "PARTIAL", "REACHED", "ArmShape", "Plan", "SearchConfig", "search", "still_clear"]
 
 REACHED, PARTIAL, NO_PATH = 0, 1, 2
 
@@ -74,7 +74,9 @@ class SearchConfig:
         link_length: the serpentine's links are straight chords of this length behind the tip [m].
         arm_clearance: the flange (six links behind the tip) and the point one link behind it, where the
             arm begins, keep this distance from sensed surfaces: the arm (radius 0.06 m) must not be
-            drawn into the structure by a path longer than the serpentine [m].
+            drawn into the structure by a path longer than the serpentine [m].  Used when the arm's
+            shape is not given (:class:`ArmShape`).
+        arm_margin: with the arm's shape, its capsules keep this clearance from sensed surfaces [m].
         length_factor, length_slack: a state whose path length so far plus its shortest length to go
             (straight or turn-then-straight, obstacles ignored) exceeds ``length_factor`` times the
             start's plus ``length_slack`` [m] is not expanded: a detour that long would draw the arm
@@ -100,6 +102,7 @@ class SearchConfig:
     start_margin: float = 0.003
     link_length: float = 0.2
     arm_clearance: float = 0.08
+    arm_margin: float = 0.02
     length_factor: float = 1.5
     length_slack: float = 0.3
     nav_margin: float = 0.35
@@ -122,6 +125,18 @@ class SearchConfig:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < lo:
                 raise ValueError(f"SearchConfig.{name} must be an integer >= {lo}, got {v!r}")
+
+
+@dataclass(frozen=True)
+class ArmShape:
+    """The robot's own arm at the start: ``points`` (k, 3) along its capsules' axes [m], ``flange`` (3,) the
+    flange J6 where the serpentine begins [m], ``radius`` the capsules' radius [m].  The lathe bed carries
+    the arm after the serpentine, in about this posture: the planner checks it translated by the flange's
+    displacement along the planned path."""
+
+    points: NDArray[np.float64]
+    flange: NDArray[np.float64]
+    radius: float
 
 
 @dataclass(frozen=True)
@@ -344,7 +359,7 @@ def _body_clear(qx, qy, qz, node, NP, NPAR, hist, L, r_link, r_arm, line, pts, P
         z = pts[0, 2] + f * (qz - pts[0, 2])
         if nearest_distance(x, y, z, r_link, P, alive, head, nxt, origin, bucket, bdims) < r_link:
             return False
-    if arm:
+    if arm and r_arm > 0.0:
         for i in (5, 6):
             if nearest_distance(pts[i, 0], pts[i, 1], pts[i, 2], r_arm, P, alive, head, nxt, origin, bucket,
                                 bdims) < r_arm:
@@ -353,15 +368,35 @@ def _body_clear(qx, qy, qz, node, NP, NPAR, hist, L, r_link, r_arm, line, pts, P
 
 
 @numba.njit(cache=True)
+def _arm_clear(qx, qy, qz, node, NP, NPAR, hist, L, arm_pts, flange, r, line, pts, P, alive, head, nxt, origin,
+               bucket, bdims):  # pragma: no cover - jitted
+    """True if the arm's axis ``arm_pts`` translated by the flange's displacement (the sixth chord point
+    behind q minus ``flange``) keeps ``r`` from every surface point: the lathe bed carries the arm along
+    behind the serpentine, in about its starting posture."""
+    n = _backward(qx, qy, qz, node, NP, NPAR, hist, 6.5 * L, line)
+    if _chain(line, n, L, 6, pts) < 6:
+        return True
+    dx, dy, dz = pts[5, 0] - flange[0], pts[5, 1] - flange[1], pts[5, 2] - flange[2]
+    for i in range(arm_pts.shape[0]):
+        if nearest_distance(arm_pts[i, 0] + dx, arm_pts[i, 1] + dy, arm_pts[i, 2] + dz, r, P, alive, head, nxt,
+                            origin, bucket, bdims) < r:
+            return False
+    return True
+
+
+@numba.njit(cache=True)
 def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, rep, hist,
-                   nav, nav_origin, nav_cell,
+                   nav, nav_origin, nav_cell, arm_pts, flange,
                    P, alive, head, nxt, origin, bucket, bdims, free, fcell, fdims, box_lo, box_hi,
                    NP, NH, NK, NG, NPAR, NKAP, NDIR, NEND, NL):  # pragma: no cover - jitted
     """Hybrid A* (see the module docstring).  Node arrays are preallocated by the caller.
 
     ``cfg`` = [step, samples, cell, heading_bin, epsilon, w_turn, max_expansions, max_length,
     start_relax, start_margin, kappa_max, body_radius, link_length, arm_clearance, length_factor,
-    length_slack].
+    length_slack, arm_reach].  ``arm_pts`` (k, 3): the arm's axis at the start, ``flange`` (3,) the
+    flange there; a state is expanded only if the arm, carried along with the flange (the sixth chord
+    point behind it), keeps ``arm_reach`` from every surface point (no ``arm_pts``: the flange and the
+    point one link behind it keep ``arm_clearance`` instead, checked with each primitive).
     Returns (status, final node, expansions, n_nodes).
     """
     step = cfg[0]
@@ -376,7 +411,9 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
     r_start = cfg[11] + cfg[9]
     kappa_max = cfg[10]
     link = cfg[12]
-    r_arm = cfg[13]
+    use_arm = arm_pts.shape[0] > 0
+    r_arm = 0.0 if use_arm else cfg[13]  # the flange and the point behind it, only without the arm's shape
+    arm_reach = cfg[16]
     line = np.empty((512, 3))
     chain_pts = np.empty((8, 3))
     n_goals = goals.shape[0]
@@ -415,13 +452,16 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
         hx, hy, hz = NH[node, 0], NH[node, 1], NH[node, 2]
         k = NK[node]
         g = NG[node]
-        if k >= n_goals:
-            return 0, node, expansions, n_nodes
         key = _key(px, py, pz, hx, hy, hz, k, origin, cell, hbin, dims, n_goals + 1)
         if node > 0:
             if key in closed:
                 continue
             closed[key] = True
+            if use_arm and not _arm_clear(px, py, pz, NPAR[node], NP, NPAR, hist, link, arm_pts, flange, arm_reach,
+                                          line, chain_pts, P, alive, head, nxt, origin, bucket, bdims):
+                continue  # the arm, carried with the flange, would meet a sensed surface
+        if k >= n_goals:
+            return 0, node, expansions, n_nodes
         expansions += 1
         if expansions > max_exp:
             return 1, best_node, expansions, n_nodes
@@ -513,10 +553,12 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
 
 
 @numba.njit(cache=True)
-def _path_clear(pts, hist, every, link, r_block, r_arm, P, alive, head, nxt, origin, bucket,
-                bdims):  # pragma: no cover - jitted
+def _path_clear(pts, hist, every, link, r_block, r_arm, arm_pts, flange, arm_reach, P, alive, head, nxt, origin,
+                bucket, bdims):  # pragma: no cover - jitted
     """True if the tip path ``pts`` keeps ``r_block`` from every surface point at each sample, and the
-    body behind it (checked every ``every`` samples, the history ``hist`` behind ``pts[0]``) is clear."""
+    body behind it (checked every ``every`` samples, the history ``hist`` behind ``pts[0]``) is clear: the
+    last link, and the arm carried with the flange (or, without ``arm_pts``, the flange and the point one
+    link behind it, ``r_arm``)."""
     n = pts.shape[0]
     line = np.empty((n + hist.shape[0] + 2, 3))
     chain_pts = np.empty((8, 3))
@@ -541,6 +583,13 @@ def _path_clear(pts, hist, every, link, r_block, r_arm, P, alive, head, nxt, ori
             z = chain_pts[0, 2] + f * (pts[i, 2] - chain_pts[0, 2])
             if nearest_distance(x, y, z, r_block, P, alive, head, nxt, origin, bucket, bdims) < r_block:
                 return False
+        if arm_pts.shape[0] > 0:
+            dx, dy, dz = chain_pts[5, 0] - flange[0], chain_pts[5, 1] - flange[1], chain_pts[5, 2] - flange[2]
+            for a in range(arm_pts.shape[0]):
+                if nearest_distance(arm_pts[a, 0] + dx, arm_pts[a, 1] + dy, arm_pts[a, 2] + dz, arm_reach, P,
+                                    alive, head, nxt, origin, bucket, bdims) < arm_reach:
+                    return False
+            continue
         for q in (5, 6):
             if nearest_distance(chain_pts[q, 0], chain_pts[q, 1], chain_pts[q, 2], r_arm, P, alive, head, nxt,
                                 origin, bucket, bdims) < r_arm:
@@ -549,7 +598,7 @@ def _path_clear(pts, hist, every, link, r_block, r_arm, P, alive, head, nxt, ori
 
 
 def still_clear(smap: SensedMap, plan: Plan, s: float, history: ArrayLike, config: SearchConfig,
-                repulsion: Repulsion) -> bool:
+                repulsion: Repulsion, arm: ArmShape | None = None) -> bool:
     """Whether the rest of ``plan`` from arc length ``s`` is still clear in the map as it is now (the
     tip and the body, as :func:`search` requires), the body lying along ``history`` behind it."""
     i = int(np.searchsorted(plan.arc, s))
@@ -557,10 +606,13 @@ def still_clear(smap: SensedMap, plan: Plan, s: float, history: ArrayLike, confi
     if len(pts) == 0:
         return True
     hist = np.asarray(history, dtype=np.float64).reshape(-1, 3)
-    every = max(1, int(round(config.step / max(float(np.median(np.diff(plan.arc))) if len(plan.arc) > 1 else 1.0,
-                                                1e-6))))
+    spacing = float(np.median(np.diff(plan.arc))) if len(plan.arc) > 1 else 1.0
+    every = max(1, int(round(config.step / max(spacing, 1e-6))))
+    arm_pts = np.zeros((0, 3)) if arm is None else np.ascontiguousarray(arm.points, dtype=np.float64)
+    flange = np.zeros(3) if arm is None else np.asarray(arm.flange, dtype=np.float64)
+    reach = 0.0 if arm is None else arm.radius + config.arm_margin
     return bool(_path_clear(pts, hist, every, config.link_length, repulsion.r_block,
-                            min(config.arm_clearance, smap.config.bucket), *smap.arrays()))
+                            min(config.arm_clearance, smap.config.bucket), arm_pts, flange, reach, *smap.arrays()))
 
 
 # ------------------------------------------------------------------------------------------ driver
@@ -599,12 +651,14 @@ def primitives(config: SearchConfig) -> tuple[NDArray[np.float64], NDArray[np.fl
 
 def search(smap: SensedMap, start: ArrayLike, heading: ArrayLike, goals: ArrayLike, tolerances: ArrayLike,
            goal_index: int, config: SearchConfig, repulsion: Repulsion, history: ArrayLike | None = None,
-           nav: NavigationFunction | None = None, sample: float = 0.005) -> Plan:
+           nav: NavigationFunction | None = None, sample: float = 0.005, arm: ArmShape | None = None) -> Plan:
     """Plan from the state (``start``, unit ``heading``) through ``goals[goal_index:]`` (see module docstring).
 
     ``history`` (m, 3): the path already travelled, oldest first, ending at ``start`` (the body
     lies along it; None = a straight body behind ``start``).  ``nav``: the navigation function of
-    the next goal (computed here when None; see :func:`navigation_region`).
+    the next goal (computed here when None; see :func:`navigation_region`).  ``arm``: the robot's arm at
+    the start (its shape is checked against the map as the flange moves; None: a cruder check of the
+    flange alone).
     """
     p0 = np.asarray(start, dtype=np.float64)
     h0 = np.asarray(heading, dtype=np.float64)
@@ -634,13 +688,16 @@ def search(smap: SensedMap, start: ArrayLike, heading: ArrayLike, goals: ArrayLi
     cfg = np.array([config.step, config.samples, config.cell, config.heading_bin, config.epsilon, config.w_turn,
                     config.max_expansions, config.max_length, config.start_relax, config.start_margin,
                     1.0 / config.min_turn_radius, repulsion.body_radius, config.link_length,
-                    min(config.arm_clearance, smap.config.bucket), config.length_factor, config.length_slack])
+                    min(config.arm_clearance, smap.config.bucket), config.length_factor, config.length_slack,
+                    0.0 if arm is None else arm.radius + config.arm_margin])
     rep = repulsion.vector()
     free, forigin, fcell, fdims = smap.free_arrays()
     box_lo = smap.origin
     box_hi = smap.origin + smap.free_dims * fcell - 1e-9
+    arm_pts = np.zeros((0, 3)) if arm is None else np.ascontiguousarray(arm.points, dtype=np.float64)
+    flange = np.zeros(3) if arm is None else np.asarray(arm.flange, dtype=np.float64)
     status, last, expansions, _ = _search_kernel(
-        p0, h0, k0, G, reach, rest, kap, dc, ds, cfg, rep, hist, nav.values, nav.origin, nav.cell,
+        p0, h0, k0, G, reach, rest, kap, dc, ds, cfg, rep, hist, nav.values, nav.origin, nav.cell, arm_pts, flange,
         *smap.arrays(), free, fcell, fdims,
         box_lo, box_hi, buf.P, buf.H, buf.K, buf.G, buf.PAR, buf.KAP, buf.DIR, buf.END, buf.L)
     if status == PARTIAL and last == 0:
