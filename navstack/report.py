@@ -161,6 +161,9 @@ class Summary:
     retracted_by_method: dict[tuple[str, str], tuple[int, int]] = field(default_factory=dict)
     retracted_by_cell: dict[tuple[str, float | None, tuple[str, str]], tuple[int, int]] = field(default_factory=dict)
     provenance: tuple[Provenance, ...] = ()
+    animations: tuple[tuple[str, str, str], ...] = ()
+    """(trial_id, reason, animation file relative to the sweep folder) of failed trials kept with
+    ``--animate-failures``."""
 
     @property
     def mixed_versions(self) -> bool:
@@ -294,7 +297,10 @@ def summarize(records: Iterable[Mapping[str, Any]], *, checked: bool = False) ->
                 values[key].setdefault(method(r), []).append(float(met[key]))
         if r["success"] and r.get("sim_time") is not None:
             values["time_to_goal"].setdefault(method(r), []).append(float(r["sim_time"]))
+    animations = tuple((str(r["trial_id"]), str(r["reason"]), str(r["animation"])) for r in records
+                       if not r["success"] and isinstance(r.get("animation"), str) and "trial_id" in r)
     return Summary(
+        animations=animations,
         n_trials=len(records), methods=methods, families=families, difficulties=difficulties,
         by_method=by_method, by_family=by_family,
         by_cell={k: by_cell[k] for k in sorted(by_cell, key=lambda k: (_fam_key(k[0]), _diff_key(k[1]), k[2]))},
@@ -433,6 +439,9 @@ def render_markdown(s: Summary, *, source: str = "results.jsonl", plots: Sequenc
     lines += _table(["reason", *(method_label(m) for m in s.methods)], rows)
     if "failure_causes.png" in plot_of:
         lines += ["", f"![Failure causes]({plot_of['failure_causes.png']})"]
+    if s.animations:
+        lines += ["", "Animations of the failed trials (kept with `--animate-failures`):", ""]
+        lines += [f"- [{tid}]({path}) ({reason})" for tid, reason, path in s.animations]
 
     lines += ["", "## Distributions"]
     for metric, title, png in METRICS:

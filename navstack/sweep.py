@@ -30,6 +30,9 @@ Outputs in ``DIR`` (only this process, the driver, writes them; workers return d
       terminal (Ray keeps its workers' output in its own logs).
     * ``sweep.lock``: held (``flock``) while a sweep runs, so a second sweep on the same ``DIR`` is refused.
     * ``trials/<trial_id>/`` (only with ``keep_trajectories``): each trial's ``result.json`` and trajectory.
+      With ``animate_failures`` the folders of the trials that failed (not ``error``) are kept, with an
+      ``animation.mp4`` made by the driver (:func:`navstack.animate.animate_run`), and their results line gets
+      ``animation`` (the file, relative to ``DIR``), which the report links.
 
 Resume and crash safety
     A rerun on the same ``DIR`` skips every ``trial_id`` already in ``results.jsonl``. A line is only written
@@ -571,7 +574,8 @@ def run_sweep(specs: Iterable[TrialSpec], out_dir: str | Path, jobs: int | None 
               trial_timeout: float | None = DEFAULT_TRIAL_TIMEOUT, runner: Runner | None = None,
               progress: bool = True, *, generator: Generator | None = None, keep_trajectories: bool = False,
               config: SweepConfig | dict[str, Any] | None = None, command: str | None = None,
-              backend: str = "local", ray_address: str | None = None) -> SweepSummary:
+              backend: str = "local", ray_address: str | None = None,
+              animate_failures: bool = False) -> SweepSummary:
     """Run (or resume) the trials ``specs`` on ``backend``; results go to ``out_dir``.
 
     Parameters
@@ -588,6 +592,8 @@ def run_sweep(specs: Iterable[TrialSpec], out_dir: str | Path, jobs: int | None 
     generator: ``generator(family, seed=world_seed, difficulty=d) -> World | dict`` for generated worlds (default
         ``navstack.generate.generate_world``); called with ``retract=True`` as well for ``retract`` specs.
     keep_trajectories: write each trial's output files under ``out_dir/trials/<trial_id>/``.
+    animate_failures: keep the output files of the trials that fail (reason other than ``reached`` and
+        ``error``) and animate them there (``animation.mp4``, made by the driver).
     config, command: stored in ``sweep.json`` for the record (not compared).
     backend, ray_address: ``local`` (worker processes here) or ``ray`` (see :mod:`navstack.executors`).
 
@@ -610,7 +616,8 @@ def run_sweep(specs: Iterable[TrialSpec], out_dir: str | Path, jobs: int | None 
         raise SweepError(f"--out: {out} exists and is not a directory")
     out.mkdir(parents=True, exist_ok=True)
     run = _Run(out=out, jobs=jobs, trial_timeout=trial_timeout, runner=runner, generator=generator,
-               keep_trajectories=keep_trajectories, backend=backend, ray_address=ray_address, progress=progress)
+               keep_trajectories=keep_trajectories, backend=backend, ray_address=ray_address, progress=progress,
+               animate_failures=animate_failures)
     with _exclusive_lock(out):
         _prepare_dir(out, specs, cfg, command)
         return run.sweep(specs)
@@ -648,7 +655,8 @@ def _job(spec: TrialSpec, run: _Run) -> TrialJob | str:
             json.loads(text.lstrip("\ufeff"))
         except json.JSONDecodeError as exc:
             return f"{path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}"
-    return TrialJob(spec=spec, world_text=text, keep_files=run.keep_trajectories, runner=run.runner,
+    return TrialJob(spec=spec, world_text=text, keep_files=run.keep_trajectories or run.animate_failures,
+                    runner=run.runner,
                     generator=run.generator)
 
 
@@ -665,6 +673,7 @@ class _Run:
     backend: str
     ray_address: str | None
     progress: bool
+    animate_failures: bool = False
     bar: Any = None
     summary: Any = None
     successes: int = 0
@@ -729,14 +738,20 @@ class _Run:
             if old_term is not None:
                 signal.signal(signal.SIGTERM, old_term)
 
+    def _animate(self, spec: TrialSpec) -> str | None:
+        """Animate a failed trial's kept folder; the file relative to ``out`` (None if it could not be made)."""
+        from navstack.animate import animate_run
+
+        try:
+            return animate_run(self.out / "trials" / spec.trial_id).relative_to(self.out).as_posix()
+        except Exception as exc:  # noqa: BLE001 - a picture must never cost the sweep its results line
+            print(f"navstack trials: could not animate {spec.trial_id}: {exc}", file=sys.stderr)
+            return None
+
     def _record(self, writer: _ResultsWriter, spec: TrialSpec, reply: dict[str, Any], backend: str) -> None:
         """Write what a worker returned: the generated world, the trial's files, then its results line."""
         if reply.get("world_json") and spec.generated:
             _write_if_changed(self.out / spec.world_file, reply["world_json"].encode("utf-8"))
-        for rel, data in (reply.get("files") or {}).items():
-            path = self.out / "trials" / spec.trial_id / rel
-            path.parent.mkdir(parents=True, exist_ok=True)
-            path.write_bytes(data)
         result = reply.get("result")
         if result is None:
             rec = _error_record(spec, reply["error"], reply["wall_time"], reply.get("traceback"))
@@ -745,6 +760,14 @@ class _Run:
                 rec = _validated_result(spec, result)
             except TypeError as exc:
                 rec = _error_record(spec, str(exc), reply["wall_time"])
+        failed = rec.get("success") is not True and rec.get("reason") != "error"
+        if self.keep_trajectories or (self.animate_failures and failed):
+            for rel, data in (reply.get("files") or {}).items():
+                path = self.out / "trials" / spec.trial_id / rel
+                path.parent.mkdir(parents=True, exist_ok=True)
+                path.write_bytes(data)
+        if self.animate_failures and failed and reply.get("files"):
+            rec["animation"] = self._animate(spec)
         writer.append(_finish_record(spec, rec, {**reply["provenance"], "backend": backend}))
         s = self.summary
         s.recorded += 1
@@ -810,6 +833,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"wall-clock limit per trial, s (default {DEFAULT_TRIAL_TIMEOUT:g}; 0 = none)")
     parser.add_argument("--keep-trajectories", action="store_true",
                         help="write each trial's result.json and trajectory.npz under DIR/trials/")
+    parser.add_argument("--animate-failures", action="store_true",
+                        help="keep the failed trials' folders under DIR/trials/ with an animation.mp4 each "
+                             "(the report links them)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--out", required=True, metavar="DIR", help="sweep directory (created or resumed)")
 
@@ -843,7 +869,7 @@ def run_from_args(args: argparse.Namespace, argv: Sequence[str] | None = None) -
                             trial_timeout=args.trial_timeout if args.trial_timeout > 0 else None,
                             progress=not args.no_progress, keep_trajectories=args.keep_trajectories,
                             config=config, command=command, backend=args.backend,
-                            ray_address=args.ray_address)
+                            ray_address=args.ray_address, animate_failures=args.animate_failures)
     except SweepError as exc:
         print(f"navstack trials: error: {exc}", file=sys.stderr)
         return 2

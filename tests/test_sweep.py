@@ -425,6 +425,41 @@ def test_keep_trajectories_files_come_back_to_the_driver(tmp_path):
     assert not (tmp_path / "plain" / "trials").exists()
 
 
+def test_animate_failures_keeps_and_animates_only_the_failed_trials(tmp_path, monkeypatch):
+    """The driver keeps the folders of failed trials, animates them there and names the file in the line;
+    successful trials leave nothing behind; the report links the animations."""
+    import navstack.animate
+    from navstack.report import write_report
+
+    animated = []
+
+    def fake_animate(run_dir):
+        animated.append(Path(run_dir))
+        assert (Path(run_dir) / "result.json").is_file()  # the trial's files are there before it is animated
+        out = Path(run_dir) / "animation.mp4"
+        out.write_bytes(b"mp4")
+        return out
+
+    monkeypatch.setattr(navstack.animate, "animate_run", fake_animate)
+    folder = write_worlds(tmp_path / "in", 4)
+    specs = build_specs(SweepConfig(worlds_dir=str(folder), controllers=("slither", "tip-only")))
+    run_sweep(specs, tmp_path / "out", jobs=2, runner=fake_runner, progress=False, animate_failures=True)
+    lines = lines_of(tmp_path / "out" / "results.jsonl")
+    failed = [r for r in lines if not r["success"]]
+    assert failed and len(failed) < len(lines)  # both kinds present
+    for r in lines:
+        trial = tmp_path / "out" / "trials" / r["trial_id"]
+        if r["success"]:
+            assert not trial.exists() and "animation" not in r
+        else:
+            assert r["animation"] == f"trials/{r['trial_id']}/animation.mp4"
+            assert (tmp_path / "out" / r["animation"]).read_bytes() == b"mp4"
+    assert sorted(p.name for p in animated) == sorted(r["trial_id"] for r in failed)
+    report = write_report(tmp_path / "out", plots=False).read_text()
+    for r in failed:
+        assert f"[{r['trial_id']}]({r['animation']})" in report
+
+
 # ---------------------------------------------------------------------------------------------- real kills
 
 KILL_SCRIPT = """
