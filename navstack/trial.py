@@ -448,9 +448,8 @@ class _Simulation:
         self.min_clearance = min(self.min_clearance, clearance)
         if clearance <= 0.0:
             self.contacts += 1
-        path = self.controller.path
-        for f in BACKBONE_FRAMES[1:]:
-            self.slither_dev_max = max(self.slither_dev_max, path.distance_to_path(F[f, :3, 3]))
+        deviation = self.controller.path.max_distance_to_path(F[BACKBONE_FRAMES[1:], :3, 3])
+        self.slither_dev_max = max(self.slither_dev_max, deviation)
         return tip, F
 
     def _advance_goals(self, tip: np.ndarray) -> None:

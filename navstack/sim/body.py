@@ -19,6 +19,7 @@ Inertias are lumped at each link frame; the body has no self-collision.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from operator import itemgetter
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -26,6 +27,9 @@ from scipy.spatial.transform import Rotation
 
 from navstack.kinematics import Chain
 from navstack.sim._bullet import pybullet
+
+_POSITION, _VELOCITY = itemgetter(0), itemgetter(1)
+"""A joint's position and velocity in a ``getJointStates`` entry."""
 
 ARM_COLOUR = (0.85, 0.55, 0.15, 1.0)
 SERPENTINE_COLOUR = (0.2, 0.6, 0.25, 1.0)
@@ -217,8 +221,8 @@ class RobotBody:
     def joint_state(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Measured joint positions and velocities (20,) from the simulator."""
         states = self.client.getJointStates(self.body_id, self.joint_indices)
-        q = np.fromiter((s[0] for s in states), dtype=np.float64, count=self.chain.n)
-        qd = np.fromiter((s[1] for s in states), dtype=np.float64, count=self.chain.n)
+        q = np.fromiter(map(_POSITION, states), dtype=np.float64, count=self.chain.n)
+        qd = np.fromiter(map(_VELOCITY, states), dtype=np.float64, count=self.chain.n)
         return q, qd
 
     def link_frames_world(self) -> NDArray[np.float64]:
