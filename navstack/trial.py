@@ -448,7 +448,10 @@ class _Simulation:
         self.min_clearance = min(self.min_clearance, clearance)
         if clearance <= 0.0:
             self.contacts += 1
-        deviation = self.controller.path.max_distance_to_path(F[BACKBONE_FRAMES[1:], :3, 3])
+        path = self.controller.path
+        points = F[BACKBONE_FRAMES[1:], :3, 3]
+        many = getattr(path, "max_distance_to_path", None)  # PathMemory's: one compiled call for all six
+        deviation = many(points) if many is not None else max(path.distance_to_path(p) for p in points)
         self.slither_dev_max = max(self.slither_dev_max, deviation)
         return tip, F
 
