@@ -345,6 +345,15 @@ def full_distance(V, n, p):  # pragma: no cover - jitted
 
 
 @numba.njit(cache=True)
+def max_full_distance(V, n, P):  # pragma: no cover - jitted
+    """The largest :func:`full_distance` of the rows of ``P`` (k, 3) (``-inf`` for k = 0)."""
+    out = -np.inf
+    for i in range(P.shape[0]):
+        out = max(out, full_distance(V, n, P[i]))
+    return out
+
+
+@numba.njit(cache=True)
 def window_distance(V, S, n, p, k, t, w_min):  # pragma: no cover - jitted
     """Distance [m] from ``p`` to the segments of ``V[:n]`` within an arc-length window of a chord point.
 
@@ -669,6 +678,14 @@ class PathMemory:
         i = joint - 1
         return float(window_distance(self._V, self._S, n, x, int(self.seg[i]), float(self.par[i]),
                                      float(window)))
+
+    def max_distance_to_path(self, points: ArrayLike) -> float:
+        """The largest exact :meth:`distance_to_path` (``joint=None``) of the rows of ``points`` (k, 3) [m], in
+        one compiled call (``-inf`` for no rows)."""
+        P = np.ascontiguousarray(points, dtype=np.float64)
+        if P.ndim != 2 or P.shape[1] != 3 or not np.isfinite(P).all():
+            raise ValueError(f"points must be finite (k, 3) positions, got shape {P.shape}")
+        return float(max_full_distance(self._V, self.n_points, P))
 
     def max_deviation(self, points: ArrayLike, window: float = 0.02) -> float:
         """Largest windowed :meth:`distance_to_path` of J1..J_{m-1} ``points`` (m-1, 3) [m].

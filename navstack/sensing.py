@@ -64,6 +64,7 @@ __all__ = [
     "check_pose",
     "frame_from_direction",
     "make_reading",
+    "reading_from_rays",
     "ray_directions",
     "ray_start_distances",
 ]
@@ -210,6 +211,12 @@ def _ray_start_distances(config: SensorConfig) -> NDArray[np.float64]:
     return out
 
 
+_IDENTITY3 = np.eye(3)
+_ORTHONORMAL_TOL = 1e-6 + 1e-5 * np.eye(3)
+"""Allowed ``|R^T R - I|`` per entry in :func:`check_pose`: ``numpy.allclose(R.T @ R, I, atol=1e-6)``'s bound,
+written out (a tenth of its cost)."""
+
+
 def check_pose(tip_T_world: ArrayLike, name: str = "tip_T_world") -> NDArray[np.float64]:
     """Return ``tip_T_world`` as a (4, 4) float array, or raise ``ValueError`` naming the problem.
 
@@ -218,10 +225,10 @@ def check_pose(tip_T_world: ArrayLike, name: str = "tip_T_world") -> NDArray[np.
     T = np.asarray(tip_T_world, dtype=np.float64)
     if T.shape != (4, 4):
         raise ValueError(f"{name} must be a (4, 4) homogeneous transform, got shape {T.shape}")
-    if not np.all(np.isfinite(T)):
+    if not np.isfinite(T).all():
         raise ValueError(f"{name} contains non-finite values")
     R = T[:3, :3]
-    if not np.allclose(R.T @ R, np.eye(3), atol=1e-6):
+    if not (np.abs(R.T @ R - _IDENTITY3) <= _ORTHONORMAL_TOL).all():
         raise ValueError(f"{name}: the rotation block is not orthonormal")
     return T
 
@@ -348,10 +355,23 @@ def make_reading(
     ``tip_T_world`` (4, 4) is the tip frame's pose in the world (world <- tip).
     """
     T = check_pose(tip_T_world)
-    dirs = _ray_directions(config) @ T[:3, :3].T
-    origins = np.broadcast_to(T[:3, 3], dirs.shape).copy()
+    return reading_from_rays(T[:3, 3], _ray_directions(config) @ T[:3, :3].T, true_ranges, hit, config, rng)
+
+
+def reading_from_rays(
+    origin: NDArray[np.float64],
+    directions: NDArray[np.float64],
+    true_ranges: NDArray[np.float64],
+    hit: NDArray[np.bool_],
+    config: SensorConfig,
+    rng: np.random.Generator | None,
+) -> SensorReading:
+    """:func:`make_reading` for a caller that already has the tip point ``origin`` (3,) [m] and the world ray
+    directions (R, 3) of a checked pose (``ray_directions(config) @ R.T``)."""
+    origins = np.broadcast_to(origin, directions.shape).copy()
     if rng is None:
         r = np.where(hit, true_ranges, config.max_range)
-        return SensorReading(origins, dirs, r, np.asarray(hit, bool), np.ones(len(r), bool), config.max_range)
+        return SensorReading(origins, directions, r, np.asarray(hit, bool), np.ones(len(r), bool),
+                             config.max_range)
     ranges, h, valid = apply_noise(true_ranges, hit, config, rng)
-    return SensorReading(origins, dirs, ranges, h, valid, config.max_range)
+    return SensorReading(origins, directions, ranges, h, valid, config.max_range)

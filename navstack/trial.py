@@ -462,14 +462,18 @@ class _Simulation:
     def _measure(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Update metrics from the measured joints ``q``; return the measured tip (world) and the frames."""
         F = self.chain.frames(q)
+        origins = F[1:22, :3, 3] @ self.R0.T + self.p0  # frames 1..21 in the world
         tip = self._to_world(F[21, :3, 3])
-        clearance = self.scene.clearance(self.body.body_id, self.cfg.clearance_horizon)
+        clearance = self.scene.clearance(self.body.body_id, self.cfg.clearance_horizon,
+                                         robot_boxes=self.body.link_boxes(origins))
         self.min_clearance = min(self.min_clearance, clearance)
         if clearance <= 0.0:
             self.contacts += 1
         path = self.controller.path
-        for f in BACKBONE_FRAMES[1:]:
-            self.slither_dev_max = max(self.slither_dev_max, path.distance_to_path(F[f, :3, 3]))
+        points = F[BACKBONE_FRAMES[1:], :3, 3]
+        many = getattr(path, "max_distance_to_path", None)  # PathMemory's: one compiled call for all six
+        deviation = many(points) if many is not None else max(path.distance_to_path(p) for p in points)
+        self.slither_dev_max = max(self.slither_dev_max, deviation)
         return tip, F
 
     def _advance_goals(self, tip: np.ndarray) -> None:

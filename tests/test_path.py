@@ -276,6 +276,17 @@ def test_distance_to_path_against_brute_force():
     assert pm.distance_to_path(beyond) == pytest.approx(0.1, abs=1e-12)
 
 
+def test_max_distance_to_path_is_the_largest_exact_distance():
+    pm = PathMemory(_backbone(_line), link_length=L)
+    rng = np.random.default_rng(4)
+    for _ in range(50):
+        pts = pm.points[0] + rng.normal(size=(6, 3)) * 0.2
+        assert pm.max_distance_to_path(pts) == max(pm.distance_to_path(p) for p in pts)
+    assert pm.max_distance_to_path(np.zeros((0, 3))) == -np.inf
+    with pytest.raises(ValueError, match="points"):
+        pm.max_distance_to_path(np.zeros((2, 2)))
+
+
 # ---------------------------------------------------------------- reverse slithering
 @pytest.mark.parametrize("retreat", [0.5, 0.8, 0.9, 1.0, 1.15])
 def test_retreat_past_the_extension_end_keeps_every_joint_behind_the_previous(retreat):

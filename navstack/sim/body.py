@@ -19,6 +19,7 @@ Inertias are lumped at each link frame; the body has no self-collision.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from operator import itemgetter
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -26,6 +27,9 @@ from scipy.spatial.transform import Rotation
 
 from navstack.kinematics import Chain
 from navstack.sim._bullet import pybullet
+
+_POSITION, _VELOCITY = itemgetter(0), itemgetter(1)
+"""A joint's position and velocity in a ``getJointStates`` entry."""
 
 ARM_COLOUR = (0.85, 0.55, 0.15, 1.0)
 SERPENTINE_COLOUR = (0.2, 0.6, 0.25, 1.0)
@@ -75,6 +79,9 @@ class RobotBody:
     chain: Chain
     base_transform: NDArray[np.float64]
     n_arm_frames: int = 8
+    link_radii: NDArray[np.float64] | None = None
+    """(21,) [m]: the radius of the capsule on DH frame k (index k - 1), from its origin to frame k + 1's
+    (0 where the two coincide and the link has no shape); set by :meth:`build`."""
 
     @classmethod
     def build(
@@ -93,7 +100,7 @@ class RobotBody:
         """
         T0 = np.eye(4) if base_transform is None else np.asarray(base_transform, dtype=np.float64)
         rows = len(chain.alpha)
-        masses, col_ids, vis_ids, positions, orientations = [], [], [], [], []
+        masses, col_ids, vis_ids, positions, orientations, radii = [], [], [], [], [], []
         parents, types, axes = [], [], []
         for row in range(rows):  # link `row` carries DH frame row + 1
             T = _row_transform(chain, row)
@@ -115,6 +122,7 @@ class RobotBody:
             serp = frame >= first_serpentine_frame
             radius = serpentine_radius if serp else arm_radius
             masses.append(SERPENTINE_LINK_MASS if serp else ARM_LINK_MASS)
+            radii.append(radius if length > 1e-9 else 0.0)
             if length > 1e-9:
                 quat = _quat_z_to(seg / length)
                 mid = list(seg / 2.0)
@@ -180,7 +188,7 @@ class RobotBody:
             )
         for j in range(chain.n):  # PyBullet's default velocity motors would fight the servo
             client.setJointMotorControl2(body, j, pybullet.VELOCITY_CONTROL, force=0.0)
-        return cls(client=client, body_id=body, chain=chain, base_transform=T0)
+        return cls(client=client, body_id=body, chain=chain, base_transform=T0, link_radii=np.array(radii))
 
     @property
     def joint_indices(self) -> list[int]:
@@ -189,6 +197,19 @@ class RobotBody:
     @property
     def tip_link(self) -> int:
         return len(self.chain.alpha) - 1
+
+    def link_boxes(self, origins: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """World boxes ``(lo, hi)``, each (20, 3) [m], that hold the robot's collision capsules (box k - 1: the
+        capsule of DH frame k, from its origin to frame k + 1's), from the world positions ``origins``
+        (21, 3) [m] of the origins of DH frames 1..21.
+
+        For :meth:`navstack.sim.scene.Scene.clearance`'s ``robot_boxes``; needs :attr:`link_radii`.
+        """
+        if self.link_radii is None:
+            raise ValueError("RobotBody.link_boxes needs link_radii (a body made by RobotBody.build)")
+        r = self.link_radii[:len(origins) - 1, None]
+        a, b = origins[:-1], origins[1:]
+        return np.minimum(a, b) - r, np.maximum(a, b) + r
 
     def reset(self, q: ArrayLike, qd: ArrayLike | None = None) -> None:
         """Teleport the joints to ``q`` (velocities ``qd``, default 0)."""
@@ -200,8 +221,8 @@ class RobotBody:
     def joint_state(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Measured joint positions and velocities (20,) from the simulator."""
         states = self.client.getJointStates(self.body_id, self.joint_indices)
-        q = np.fromiter((s[0] for s in states), dtype=np.float64, count=self.chain.n)
-        qd = np.fromiter((s[1] for s in states), dtype=np.float64, count=self.chain.n)
+        q = np.fromiter(map(_POSITION, states), dtype=np.float64, count=self.chain.n)
+        qd = np.fromiter(map(_VELOCITY, states), dtype=np.float64, count=self.chain.n)
         return q, qd
 
     def link_frames_world(self) -> NDArray[np.float64]:

@@ -19,6 +19,7 @@ obstacle (the tip already penetrating it) does not see that obstacle either.
 
 from __future__ import annotations
 
+from operator import itemgetter
 from typing import Any
 
 import numpy as np
@@ -28,12 +29,17 @@ from navstack.sensing import (
     SensorConfig,
     SensorReading,
     check_pose,
-    make_reading,
     ray_directions,
     ray_start_distances,
+    reading_from_rays,
 )
 
 __all__ = ["RaySensor"]
+
+_BODY = itemgetter(0)
+"""The hit body's id in a ``rayTestBatch`` result (-1: no hit)."""
+_FRACTION = itemgetter(2)
+"""The hit fraction along the ray in a ``rayTestBatch`` result."""
 
 
 class RaySensor:
@@ -75,22 +81,21 @@ class RaySensor:
     def read(self, tip_T_world: ArrayLike) -> SensorReading:
         """Cast every ray from the tip pose ``tip_T_world`` (4, 4, world <- tip frame).
 
-        Exactly one ``client.rayTestBatch`` call; returns the (noisy) reading.
+        Exactly one ``client.rayTestBatch`` call (fed numpy arrays: PyBullet reads any sequence of
+        3-vectors); returns the (noisy) reading.
         """
         T = check_pose(tip_T_world)
         dirs = self._dirs_tip @ T[:3, :3].T
         tip = T[:3, 3]
-        starts = tip + self._start[:, None] * dirs
-        ends = tip + self.config.max_range * dirs
-        results = self.client.rayTestBatch(starts.tolist(), ends.tolist())
+        results = self.client.rayTestBatch(tip + self._start[:, None] * dirs, tip + self.config.max_range * dirs)
         if len(results) != self.n_rays:
             raise RuntimeError(f"rayTestBatch returned {len(results)} results for {self.n_rays} rays")
-        body = np.fromiter((r[0] for r in results), dtype=np.int64, count=self.n_rays)
-        frac = np.fromiter((r[2] for r in results), dtype=np.float64, count=self.n_rays)
+        body = np.fromiter(map(_BODY, results), dtype=np.int64, count=self.n_rays)
+        frac = np.fromiter(map(_FRACTION, results), dtype=np.float64, count=self.n_rays)
         hit = body >= 0
         if self.robot_id is not None:
             hit &= body != self.robot_id
         true_ranges = np.where(
             hit, self._start + frac * (self.config.max_range - self._start), self.config.max_range
         )
-        return make_reading(T, true_ranges, hit, self.config, self.rng)
+        return reading_from_rays(tip, dirs, true_ranges, hit, self.config, self.rng)
