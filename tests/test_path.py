@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from navstack import jpl_serpentine
 from navstack.path import PathMemory, full_distance
@@ -288,21 +289,28 @@ def test_max_distance_to_path_is_the_largest_exact_distance():
 
 
 # ---------------------------------------------------------------- reverse slithering
+SKEW = Rotation.from_rotvec([0.3, -0.5, 0.7]).as_matrix()
+"""A rotation that mixes every axis: a line along no coordinate axis (an axis-aligned line hid a wrong
+vertex index in one coordinate of the extrapolation's direction, a mutant that survived)."""
+
+
+@pytest.mark.parametrize("frame", ["axis", "skew"])
 @pytest.mark.parametrize("retreat", [0.5, 0.8, 0.9, 1.0, 1.15])
-def test_retreat_past_the_extension_end_keeps_every_joint_behind_the_previous(retreat):
+def test_retreat_past_the_extension_end_keeps_every_joint_behind_the_previous(retreat, frame):
     """Issue 14: once J5 is past the end of the initial extension, J6 took the wrong root (folded onto J4).
 
     The tip backs ``retreat`` metres straight along its initial backbone; every chord point must then be
     one link behind the one before it on the extrapolated line (extension 0.6 m behind J6: J5 leaves it
-    for retreats over 0.8 m).
+    for retreats over 0.8 m).  ``skew``: the same, the whole line rotated off the coordinate axes.
     """
-    bb = _backbone(_line)  # tip at s = 0, J1..J6 behind it along -z
+    R = np.eye(3) if frame == "axis" else SKEW
+    bb = _backbone(_line) @ R.T  # tip at s = 0, J1..J6 behind it along -z (rotated)
     pm = PathMemory(bb, link_length=L)
-    back = np.array([0.0, 0.0, -0.05])
+    back = R @ np.array([0.0, 0.0, -0.05])
     for s in np.arange(0.0, retreat + 1e-12, 0.002):
-        tip = _line(-s)[0]
+        tip = _line(-s)[0] @ R.T
         pts, _ = pm.chain(tip, back)
-    expected = _line(-retreat - L * np.arange(1, M))
+    expected = _line(-retreat - L * np.arange(1, M)) @ R.T
     np.testing.assert_allclose(pts, expected, rtol=0, atol=1e-9)
 
 
@@ -413,3 +421,22 @@ def test_a_reverse_command_off_the_path_raises_and_changes_nothing():
         pm.advance([np.nan, 0.0, 0.0], np.zeros(3), reverse=True)
     assert pm.n_points == n and pm.end_arc_length == end
     np.testing.assert_array_equal(pm.ptr, ptr)
+
+
+def test_a_retreat_cannot_cut_the_path_back_past_the_extension_end():
+    """The path may be cut back to any point after the extension's end (arc length 0, ``MIN_ARC``), never to
+    it: a reverse command there is refused (``ValueError``) and the path stays as it was."""
+    bb = _backbone(_line)
+    pm = PathMemory(bb, link_length=L)
+    back = np.array([0.0, 0.0, -0.05])
+    end = pm.points[0]  # the extension's end, 0.6 m behind J6
+    total = float(np.linalg.norm(bb[0] - end))
+    steps = np.arange(0.0, total - 0.001, 0.002)
+    for s in steps:
+        pm.advance(_line(-s)[0], back, reverse=True)
+    assert pm.end_arc_length == pytest.approx(total - steps[-1], abs=1e-9) and pm.end_arc_length > 0
+    before = (pm.points.copy(), pm.end_arc_length)
+    with pytest.raises(ValueError, match="retrace"):
+        pm.advance(end, back, reverse=True)
+    np.testing.assert_array_equal(pm.points, before[0])
+    assert pm.end_arc_length == before[1]
