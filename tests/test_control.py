@@ -298,6 +298,7 @@ def test_limit_weight_ramps_smoothly_and_theta_d_stays_in_limits():
         ("wv", (1.0,) * 19),
         ("wv", (0.0,) + (1.0,) * 19),
         ("posture", (0.0, 1.0)),
+        ("posture", (0.0,) * 8),  # one too many
         ("limit_margin", -0.1),
         ("path_spacing", 0.0),
     ],
@@ -310,7 +311,7 @@ def test_bad_config_values_raise_naming_the_field(field, value):
 def test_config_that_conflicts_with_the_robot_is_rejected():
     with pytest.raises(ValueError, match="ControlConfig.limit_margin"):
         SlitherController(CHAIN, ControlConfig(limit_margin=1.4), Q_DEFAULT)  # serpentine range 2.6 rad
-    with pytest.raises(ValueError, match="ControlConfig.posture"):
+    with pytest.raises(ValueError, match=r"ControlConfig.posture for joint 5 = 3.0 "):  # 4th arm joint: joint 5
         SlitherController(CHAIN, ControlConfig(posture=(0, 0, 0, 3.0, 0, 0, 0)), Q_DEFAULT)
     bad_q0 = Q_DEFAULT.copy()
     bad_q0[10] = 2.0
