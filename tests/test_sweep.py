@@ -665,3 +665,55 @@ def test_second_sweep_on_a_busy_directory_is_refused(tmp_path):
     finally:
         os.close(fd)
     assert not (out / "results.jsonl").exists()
+
+
+def test_closing_the_results_writer_twice_is_harmless(tmp_path):
+    writer = sweep._ResultsWriter(tmp_path / "results.jsonl")
+    writer.append({"trial_id": "a"})
+    writer.close()
+    writer.close()  # an interrupted sweep closes in a finally block after a normal close
+    assert writer.fd == -1
+    assert lines_of(tmp_path / "results.jsonl") == [{"trial_id": "a"}]
+
+
+def test_a_world_file_gone_before_its_trial_is_an_error_line(tmp_path):
+    folder = write_worlds(tmp_path / "in", 2)
+    specs = build_specs(SweepConfig(worlds_dir=str(folder)))
+    gone = folder / "w01.json"
+    gone.unlink()  # removed by someone else after the sweep listed it
+    summary = run_sweep(specs, tmp_path / "out", jobs=1, runner=fake_runner, progress=False)
+    recs = {r["world_id"]: r for r in lines_of(tmp_path / "out" / "results.jsonl")}
+    assert summary.errors == 1 and recs["w01"]["reason"] == "error"
+    assert recs["w01"]["error"].startswith(f"{gone}: cannot read world file:")
+    assert recs["w00"]["reason"] in ("reached", "collision")
+
+
+def test_the_progress_bar_shows_errors_without_failing(tmp_path, capsys):
+    folder = write_worlds(tmp_path / "in", 1)
+    (folder / "x_raise.json").write_text(json.dumps({"name": "x_raise", "extra": {"behaviour": "raise"}}))
+    specs = build_specs(SweepConfig(worlds_dir=str(folder)))
+    summary = run_sweep(specs, tmp_path / "out", jobs=1, runner=fake_runner, progress=True)
+    assert (summary.ran, summary.errors) == (2, 1)
+    assert "errors 1" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("option", "expected"), [("0", None), ("7.5", 7.5)])
+def test_trial_timeout_zero_means_none_on_the_command_line(tmp_path, option, expected):
+    import functools
+
+    folder = write_worlds(tmp_path / "in", 1)
+    args = _parse(["--worlds", str(folder), "--out", str(tmp_path / "out"), "--jobs", "1", "--no-progress",
+                   "--trial-timeout", option])
+    seen = []
+    real = sweep.run_sweep
+
+    def spy(*a, **k):
+        seen.append(k["trial_timeout"])
+        return functools.partial(real, runner=fake_runner)(*a, **k)
+
+    try:
+        sweep.run_sweep = spy
+        assert sweep.run_from_args(args, []) == 0
+    finally:
+        sweep.run_sweep = real
+    assert seen == [expected]
