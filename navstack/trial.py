@@ -425,7 +425,7 @@ class _Simulation:
         context = PlannerContext(start=tip0, heading=heading0, goals=self.goals, tolerances=self.tolerances,
                                  dt=self.dt, config=cfg, arm=_axis_samples(arm_frames, 0.05),
                                  arm_radius=world.robot.arm_radius, flange=arm_frames[-1],
-                                 dynamic=any(getattr(o, "motion", None) is not None for o in world.obstacles))
+                                 dynamic=bool(self.scene.movers))
         self.planner = load(entry.factory)(context)
         self.sensor = None
         self.estimator = None

@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 import pytest
+from _clouds import box_surface
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
@@ -300,18 +301,8 @@ def test_a_wall_without_a_hole_leaves_the_near_side_unreachable():
 
 def test_an_enclosed_goal_is_unreachable_from_outside():
     c, a = np.array([0.5, 0.0, 0.0]), 0.12
-    g = np.arange(-a, a + 1e-9, 0.01)
-    u, v = (x.ravel() for x in np.meshgrid(g, g, indexing="ij"))
-    faces = []
-    for ax in range(3):
-        for s in (-a, a):
-            f = np.zeros((len(u), 3))
-            f[:, ax] = s
-            f[:, (ax + 1) % 3] = u
-            f[:, (ax + 2) % 3] = v
-            faces.append(c + f)
     smap = SensedMap([0, 0, 0], c)
-    smap.add_points(np.vstack(faces))
+    smap.add_points(box_surface(c, a))
     nav = navigation_function(smap, c, REACH, NAV_LO, NAV_HI, REP)
     assert math.isfinite(nav.lookup(c + [0.03, 0.0, 0.0]))
     assert nav.lookup([0.0, 0.0, 0.0]) == math.inf

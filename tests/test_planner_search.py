@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 import pytest
+from _clouds import box_surface
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
@@ -61,20 +62,6 @@ def _wall(slot_y=None, width=0.1, x=0.5, spacing=0.01):
                                            np.arange(-0.4, 0.4 + 1e-9, spacing), indexing="ij"))
     keep = np.ones(len(y), dtype=bool) if slot_y is None else np.abs(y - slot_y) >= 0.5 * width - 1e-9
     return np.column_stack([np.full(keep.sum(), x), y[keep], z[keep]])
-
-
-def _box(centre, a, spacing=0.01):
-    g = np.arange(-a, a + 1e-9, spacing)
-    u, v = (x.ravel() for x in np.meshgrid(g, g, indexing="ij"))
-    faces = []
-    for ax in range(3):
-        for s in (-a, a):
-            f = np.zeros((len(u), 3))
-            f[:, ax] = s
-            f[:, (ax + 1) % 3] = u
-            f[:, (ax + 2) % 3] = v
-            faces.append(np.asarray(centre) + f)
-    return np.vstack(faces)
 
 
 def _map(points=None, seen=True, hi=(1.0, 0.0, 0.0)) -> SensedMap:
@@ -430,7 +417,7 @@ def test_the_search_finds_a_way_that_keeps_the_arm_clear_of_a_post():
 
 
 def test_a_closed_box_around_the_start_gives_no_path():
-    smap = _map(_box([0.0, 0.0, 0.0], 0.2))
+    smap = _map(box_surface([0.0, 0.0, 0.0], 0.2))
     plan = _plan(smap, [1.0, 0.0, 0.0])
     assert plan.status == NO_PATH
     assert plan.points.shape == (1, 3) and plan.length == 0.0
@@ -439,7 +426,7 @@ def test_a_closed_box_around_the_start_gives_no_path():
 
 
 def test_a_closed_box_around_the_goal_gives_no_path():
-    smap = _map(_box([0.8, 0.0, 0.0], 0.12), hi=(0.8, 0.0, 0.0))
+    smap = _map(box_surface([0.8, 0.0, 0.0], 0.12), hi=(0.8, 0.0, 0.0))
     plan = _plan(smap, [0.8, 0.0, 0.0])
     assert plan.status in (NO_PATH, PARTIAL) and plan.status != REACHED
     if plan.status == PARTIAL:
@@ -450,7 +437,7 @@ def test_the_search_is_deterministic():
     smap = _map(_wall(0.1))
     goals = np.array([[0.4, 0.05, 0.0], [1.0, 0.0, 0.05]])
     a = _plan(smap, goals)
-    other = _plan(_map(_box([0.0, 0.0, 0.0], 0.2)), [1.0, 0.0, 0.0])  # reuses the node buffers in between
+    other = _plan(_map(box_surface([0.0, 0.0, 0.0], 0.2)), [1.0, 0.0, 0.0])  # reuses the node buffers in between
     b = _plan(smap, goals)
     assert a.status == b.status == REACHED and other.status == NO_PATH
     for name in ("points", "tangents", "arc", "goal_index"):
@@ -540,3 +527,19 @@ def test_plan_state_interpolates_and_clamps():
 def test_search_config_rejects_bad_values(name, value):
     with pytest.raises(ValueError, match=name):
         SearchConfig(**{name: value})
+
+
+@pytest.mark.parametrize(("kwargs", "match"), [
+    ({"points": np.zeros((4, 2))}, "ArmShape.points"),
+    ({"points": np.full((4, 3), np.nan)}, "ArmShape.points"),
+    ({"flange": np.zeros(2)}, "ArmShape.flange"),
+    ({"radius": 0.0}, "ArmShape.radius"),
+    ({"radius": float("inf")}, "ArmShape.radius"),
+])
+def test_a_bad_arm_shape_is_refused_naming_the_field(kwargs, match):
+    from navstack.planner.search import ArmShape
+
+    good = {"points": np.zeros((4, 3)), "flange": np.zeros(3), "radius": 0.06}
+    with pytest.raises(ValueError, match=match):
+        ArmShape(**{**good, **kwargs})
+    assert ArmShape(**good).points.flags.c_contiguous

@@ -138,6 +138,30 @@ class ArmShape:
     flange: NDArray[np.float64]
     radius: float
 
+    def __post_init__(self) -> None:  # checked contiguous float arrays, once: the kernels take them every step
+        points = np.ascontiguousarray(self.points, dtype=np.float64)
+        flange = np.asarray(self.flange, dtype=np.float64)
+        if points.ndim != 2 or points.shape[1] != 3 or not np.isfinite(points).all():
+            raise ValueError(f"ArmShape.points must be a finite (k, 3) array [m], got shape {points.shape}")
+        if flange.shape != (3,) or not np.isfinite(flange).all():
+            raise ValueError(f"ArmShape.flange must be a finite 3-vector [m], got shape {flange.shape}")
+        if not (isinstance(self.radius, (int, float)) and math.isfinite(self.radius) and self.radius > 0):
+            raise ValueError(f"ArmShape.radius must be a positive length [m], got {self.radius!r}")
+        object.__setattr__(self, "points", points)
+        object.__setattr__(self, "flange", flange)
+        object.__setattr__(self, "radius", float(self.radius))
+
+
+_NO_ARM = (np.zeros((0, 3)), np.zeros(3))
+
+
+def _arm_arrays(arm: ArmShape | None, config: SearchConfig) -> tuple[NDArray, NDArray, float]:
+    """The kernels' view of the arm: its axis points, its flange and the reach its surface keeps [m]
+    (no points and reach 0 without an arm)."""
+    if arm is None:
+        return _NO_ARM[0], _NO_ARM[1], 0.0
+    return arm.points, arm.flange, arm.radius + config.arm_margin
+
 
 @dataclass(frozen=True)
 class Plan:
@@ -608,9 +632,7 @@ def still_clear(smap: SensedMap, plan: Plan, s: float, history: ArrayLike, confi
     hist = np.asarray(history, dtype=np.float64).reshape(-1, 3)
     spacing = float(np.median(np.diff(plan.arc))) if len(plan.arc) > 1 else 1.0
     every = max(1, int(round(config.step / max(spacing, 1e-6))))
-    arm_pts = np.zeros((0, 3)) if arm is None else np.ascontiguousarray(arm.points, dtype=np.float64)
-    flange = np.zeros(3) if arm is None else np.asarray(arm.flange, dtype=np.float64)
-    reach = 0.0 if arm is None else arm.radius + config.arm_margin
+    arm_pts, flange, reach = _arm_arrays(arm, config)
     return bool(_path_clear(pts, hist, every, config.link_length, repulsion.r_block,
                             min(config.arm_clearance, smap.config.bucket), arm_pts, flange, reach, *smap.arrays()))
 
@@ -685,17 +707,16 @@ def search(smap: SensedMap, start: ArrayLike, heading: ArrayLike, goals: ArrayLi
     buf = _BUFFERS.get(cap)
     if buf is None:
         buf = _BUFFERS[cap] = _Buffers(cap)
+    arm_pts, flange, arm_reach = _arm_arrays(arm, config)
     cfg = np.array([config.step, config.samples, config.cell, config.heading_bin, config.epsilon, config.w_turn,
                     config.max_expansions, config.max_length, config.start_relax, config.start_margin,
                     1.0 / config.min_turn_radius, repulsion.body_radius, config.link_length,
                     min(config.arm_clearance, smap.config.bucket), config.length_factor, config.length_slack,
-                    0.0 if arm is None else arm.radius + config.arm_margin])
+                    arm_reach])
     rep = repulsion.vector()
     free, forigin, fcell, fdims = smap.free_arrays()
     box_lo = smap.origin
     box_hi = smap.origin + smap.free_dims * fcell - 1e-9
-    arm_pts = np.zeros((0, 3)) if arm is None else np.ascontiguousarray(arm.points, dtype=np.float64)
-    flange = np.zeros(3) if arm is None else np.asarray(arm.flange, dtype=np.float64)
     status, last, expansions, _ = _search_kernel(
         p0, h0, k0, G, reach, rest, kap, dc, ds, cfg, rep, hist, nav.values, nav.origin, nav.cell, arm_pts, flange,
         *smap.arrays(), free, fcell, fdims,

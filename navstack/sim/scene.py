@@ -282,22 +282,15 @@ class Scene:
             gaps = np.empty(len(bodies))
             _body_gaps(lo, hi, self.boxes[0], self.boxes[1], self._body_rank, dmax + BOX_SLACK, BOX_SLACK, gaps)
             bound = gaps.tolist()
-            for d in thresholds:
-                best = d
-                for b, g in zip(bodies, bound, strict=True):
-                    if g < d:
-                        for pt in cl.getClosestPoints(robot_id, b, d):
-                            if pt[8] < best:
-                                best = pt[8]
-                if best < d:
-                    return float(best)
-            return dmax
+        else:
+            bound = [-math.inf] * len(bodies)  # no boxes: every body may be near
         for d in thresholds:
             best = d
-            for b in bodies:
-                for pt in cl.getClosestPoints(robot_id, b, d):
-                    if pt[8] < best:
-                        best = pt[8]
+            for b, g in zip(bodies, bound, strict=True):
+                if g < d:
+                    for pt in cl.getClosestPoints(robot_id, b, d):
+                        if pt[8] < best:
+                            best = pt[8]
             if best < d:
                 return float(best)
         return dmax
