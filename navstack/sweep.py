@@ -768,16 +768,17 @@ class _Run:
                 path.write_bytes(data)
         if self.animate_failures and failed and reply.get("files"):
             rec["animation"] = self._animate(spec)
-        writer.append(_finish_record(spec, rec, {**reply["provenance"], "backend": backend}))
         s = self.summary
-        s.recorded += 1
-        s.ran += 1
-        if rec.get("success") is True:
-            s.succeeded += 1
-            self.successes += 1
-        if rec.get("reason") == "error":
-            s.errors += 1
-            s.error_ids.append(spec.trial_id)
+        with _signals_deferred():  # the line and its count together: an interrupt comes before or after both
+            writer.append(_finish_record(spec, rec, {**reply["provenance"], "backend": backend}))
+            s.recorded += 1
+            s.ran += 1
+            if rec.get("success") is True:
+                s.succeeded += 1
+                self.successes += 1
+            if rec.get("reason") == "error":
+                s.errors += 1
+                s.error_ids.append(spec.trial_id)
         if self.bar is not None:
             self.bar.set_postfix_str(f"ok {self.successes}/{s.recorded}"
                                      + (f", errors {s.errors}" if s.errors else ""), refresh=False)
@@ -786,6 +787,21 @@ class _Run:
 
 def _on_sigterm(signum: int, frame: Any) -> None:
     raise _Interrupted()
+
+
+@contextlib.contextmanager
+def _signals_deferred() -> Any:
+    """Hold SIGINT and SIGTERM (delivered on leaving) in the main thread on POSIX, so an interrupt cannot fall
+    between a results line and the summary's count of it; elsewhere nothing is held."""
+    mask = getattr(signal, "pthread_sigmask", None)
+    if mask is None or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = mask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    try:
+        yield
+    finally:
+        mask(signal.SIG_SETMASK, old)
 
 
 def _write_if_changed(path: Path, data: bytes) -> None:
