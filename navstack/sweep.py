@@ -791,17 +791,23 @@ def _on_sigterm(signum: int, frame: Any) -> None:
 
 @contextlib.contextmanager
 def _signals_deferred() -> Any:
-    """Hold SIGINT and SIGTERM (delivered on leaving) in the main thread on POSIX, so an interrupt cannot fall
-    between a results line and the summary's count of it; elsewhere nothing is held."""
-    mask = getattr(signal, "pthread_sigmask", None)
-    if mask is None or threading.current_thread() is not threading.main_thread():
+    """Hold SIGINT and SIGTERM until the block is done, then deliver them to the handlers in place before, so
+    an interrupt cannot fall between a results line and the summary's count of it.  The handlers are swapped
+    (a thread's signal mask is not enough: the process's other threads would take the signal).  Only the
+    main thread can do so; elsewhere nothing is held."""
+    if threading.current_thread() is not threading.main_thread():
         yield
         return
-    old = mask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    held: list[int] = []
+    signals = (signal.SIGINT, signal.SIGTERM)
+    old = {sig: signal.signal(sig, lambda signum, frame: held.append(signum)) for sig in signals}
     try:
         yield
     finally:
-        mask(signal.SIG_SETMASK, old)
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
+        for sig in dict.fromkeys(held):
+            signal.raise_signal(sig)
 
 
 def _write_if_changed(path: Path, data: bytes) -> None:
