@@ -578,6 +578,26 @@ class PathMemory:
         f = (s - s0) / (s1 - s0)
         return a + f * d, d / np.linalg.norm(d)
 
+    def points_at(self, s: ArrayLike) -> NDArray[np.float64]:
+        """The path's points (K, 3) [m] at the arc lengths ``s`` (K,) [m]: :meth:`point_at` for many
+        (the same arithmetic, so the same values), without the tangents."""
+        s = np.asarray(s, dtype=np.float64).reshape(-1)
+        end = self.end_arc_length
+        if len(s) and not (np.isfinite(s).all() and s.min() >= 0.0 and s.max() <= end):
+            raise ValueError(f"s must be arc lengths in [0, {end}] m, got {s.min()} .. {s.max()}")
+        n = self.n_points
+        S = self._S[:n]
+        k = np.minimum(np.searchsorted(S, s, side="right") - 1, n - 2)
+        a, b, s0, s1 = self._V[k], self._V[k + 1], S[k], S[k + 1]
+        live = s >= S[n - 1]
+        if live.any():
+            if end > S[n - 1]:  # the live segment, from the last vertex to the head
+                a[live], b[live], s0[live], s1[live] = self._V[n - 1], self._head[:3], S[n - 1], end
+            else:  # the head is the last vertex: its segment is the last recorded one
+                a[live], b[live], s0[live], s1[live] = self._V[n - 2], self._V[n - 1], S[n - 2], S[n - 1]
+        f = (s - s0) / (s1 - s0)
+        return a + f[:, None] * (b - a)
+
     def locate(self, x: ArrayLike) -> tuple[float, float]:
         """Arc length [m] of the point of the path nearest ``x`` near its end, and the distance [m].
 

@@ -768,16 +768,17 @@ class _Run:
                 path.write_bytes(data)
         if self.animate_failures and failed and reply.get("files"):
             rec["animation"] = self._animate(spec)
-        writer.append(_finish_record(spec, rec, {**reply["provenance"], "backend": backend}))
         s = self.summary
-        s.recorded += 1
-        s.ran += 1
-        if rec.get("success") is True:
-            s.succeeded += 1
-            self.successes += 1
-        if rec.get("reason") == "error":
-            s.errors += 1
-            s.error_ids.append(spec.trial_id)
+        with _signals_deferred():  # the line and its count together: an interrupt comes before or after both
+            writer.append(_finish_record(spec, rec, {**reply["provenance"], "backend": backend}))
+            s.recorded += 1
+            s.ran += 1
+            if rec.get("success") is True:
+                s.succeeded += 1
+                self.successes += 1
+            if rec.get("reason") == "error":
+                s.errors += 1
+                s.error_ids.append(spec.trial_id)
         if self.bar is not None:
             self.bar.set_postfix_str(f"ok {self.successes}/{s.recorded}"
                                      + (f", errors {s.errors}" if s.errors else ""), refresh=False)
@@ -786,6 +787,27 @@ class _Run:
 
 def _on_sigterm(signum: int, frame: Any) -> None:
     raise _Interrupted()
+
+
+@contextlib.contextmanager
+def _signals_deferred() -> Any:
+    """Hold SIGINT and SIGTERM until the block is done, then deliver them to the handlers in place before, so
+    an interrupt cannot fall between a results line and the summary's count of it.  The handlers are swapped
+    (a thread's signal mask is not enough: the process's other threads would take the signal).  Only the
+    main thread can do so; elsewhere nothing is held."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held: list[int] = []
+    signals = (signal.SIGINT, signal.SIGTERM)
+    old = {sig: signal.signal(sig, lambda signum, frame: held.append(signum)) for sig in signals}
+    try:
+        yield
+    finally:
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
+        for sig in dict.fromkeys(held):
+            signal.raise_signal(sig)
 
 
 def _write_if_changed(path: Path, data: bytes) -> None:

@@ -346,6 +346,28 @@ def test_point_at_and_truncate_cut_the_path_back_to_an_arc_length():
         pm.point_at(s_cut + 1e-3)
 
 
+def test_points_at_is_point_at_for_many_arc_lengths_bit_for_bit():
+    """The vectorized lookup (the planner's history) gives point_at's values exactly: on vertices, between
+    them, on the live segment, at the end, and after a cut where the head is the last vertex."""
+    *_, (pm, _, _) = _drive(_circle, 0.5)
+    rng = np.random.default_rng(3)
+
+    def check():
+        S, end = pm.arc_length, pm.end_arc_length
+        s = np.concatenate([rng.uniform(0.0, end, 400), S[:: max(len(S) // 20, 1)], [0.0, S[-1], end],
+                            np.linspace(S[-1], end, 5)])
+        expected = np.array([pm.point_at(x)[0] for x in s])
+        np.testing.assert_array_equal(pm.points_at(s), expected)
+
+    check()
+    pm.truncate(pm.start_arc_length + 0.2345)
+    check()
+    assert pm.points_at([]).shape == (0, 3)
+    for bad in ([-1e-3], [pm.end_arc_length + 1e-3], [np.nan]):
+        with pytest.raises(ValueError, match="arc length"):
+            pm.points_at(bad)
+
+
 def test_truncation_work_is_bounded_by_the_dropped_vertices():
     """A long history, then a retreat in small steps: each step visits only what it drops (no scan)."""
     pm = PathMemory(_backbone(_line), link_length=L, spacing=1e-3)

@@ -161,6 +161,113 @@ def test_storage_grows_past_its_initial_capacity():
                                rtol=0, atol=1e-12)
 
 
+
+class _ReferenceMerge:
+    """The merge rule of ``add_points`` written out in plain Python: dicts of voxel tuples, lists of slots."""
+
+    def __init__(self, smap: SensedMap) -> None:
+        self.smap = smap  # only its geometry and its seen-free cells are read
+        self.P: list[np.ndarray] = []
+        self.count: list[int] = []
+        self.evidence: list[int] = []
+        self.alive: list[bool] = []
+        self.next: list[int] = []
+        self.shadow: list[bool] = []
+        self.head = np.full(tuple(smap.bucket_dims), -1, dtype=np.int64)
+        self.voxels: dict[bool, dict[tuple[int, int, int], int]] = {False: {}, True: {}}
+        self.version = 0
+        self.new_points = np.empty((0, 3))
+        self.put_back = self.refused_free = 0  # how often the rarer branches were taken
+
+    def add(self, pts: np.ndarray, shadow: bool) -> None:
+        cfg, origin = self.smap.config, self.smap.origin
+        changed = []
+        for p in pts:
+            key = tuple(int(x) for x in np.floor((p - origin) / cfg.voxel))
+            idx = self.voxels[shadow].get(key)
+            if shadow and (idx is not None or self.smap.is_seen_free(p)):
+                self.refused_free += idx is None
+                continue  # a shadow is placed once, and never in a cell seen free
+            if idx is not None and self.alive[idx]:  # one more sample of a live point
+                c = min(self.count[idx] + 1, cfg.average)
+                self.count[idx] = c
+                self.evidence[idx] = min(self.evidence[idx] + 1, cfg.max_evidence)
+                step = (p - self.P[idx]) / c
+                self.P[idx] = self.P[idx] + step
+                if step[0] * step[0] + step[1] * step[1] + step[2] * step[2] > 1e-6:
+                    changed.append(self.P[idx])
+                continue
+            if idx is None:  # a new voxel: a new slot at the head of its bucket's list
+                idx = len(self.P)
+                self.voxels[shadow][key] = idx
+                b = tuple(np.clip(np.floor((p - origin) / cfg.bucket).astype(int), 0, self.smap.bucket_dims - 1))
+                self.P.append(p)
+                self.count.append(0)
+                self.evidence.append(0)
+                self.alive.append(False)
+                self.next.append(int(self.head[b]))
+                self.shadow.append(shadow)
+                self.head[b] = idx
+            else:
+                self.put_back += 1
+            self.P[idx] = p.copy()  # a new point, or a removed one put back
+            self.count[idx] = 1
+            self.evidence[idx] = cfg.initial_evidence
+            self.alive[idx] = True
+            changed.append(p)
+        if changed:
+            self.version += 1
+            self.new_points = np.vstack([self.new_points, np.array(changed)])
+
+
+def test_add_points_matches_a_plain_python_merge_exactly():
+    """Random batches (points in and far outside the box, repeated voxels, shadows, cells seen free, removed
+    points put back, storage growing inside a batch): every array the kernels read, the version and the new
+    points equal those of the rule written out in Python, bit for bit."""
+    rng = np.random.default_rng(11)
+    cfg = MapConfig(average=3, initial_evidence=2, max_evidence=4)
+    smap = _map(cfg)
+    ref = _ReferenceMerge(smap)
+    top = smap.origin + smap.free_dims * cfg.free_cell
+    pool = rng.uniform(smap.origin - 0.5, top + 0.5, (2500, 3))  # a fifth of them outside the box
+    for call in range(90):
+        smap.mark_free(pool[rng.integers(0, pool.shape[0])], 0.15)  # no shadows there any more
+        if call % 9 == 8:
+            n = smap.n_slots
+            kill = rng.choice(n, n // 20, replace=False)  # forgotten points (as a clean pass removes them)
+            smap._alive[kill] = False
+            for q in kill:
+                ref.alive[q] = False
+        noise = rng.choice([0.0005, 0.004, 0.012])  # within a voxel, a few mm, into the next voxels
+        pts = pool[rng.integers(0, pool.shape[0], int(rng.integers(1, 160)))]
+        pts = pts + rng.normal(0.0, noise, pts.shape)
+        shadow = bool(rng.random() < 0.35)
+        smap.add_points(pts, shadow=shadow)
+        ref.add(pts, shadow)
+        n = len(ref.P)
+        assert smap.n_slots == n and smap.version == ref.version
+        np.testing.assert_array_equal(smap._P[:n], np.array(ref.P).reshape(-1, 3))
+        np.testing.assert_array_equal(smap._count[:n], ref.count)
+        np.testing.assert_array_equal(smap._evidence[:n], ref.evidence)
+        np.testing.assert_array_equal(smap._alive[:n], ref.alive)
+        np.testing.assert_array_equal(smap._next[:n], ref.next)
+        np.testing.assert_array_equal(smap._shadow[:n], ref.shadow)
+        np.testing.assert_array_equal(smap.head, ref.head)
+        np.testing.assert_array_equal(smap.new_points, ref.new_points)
+    # the sequence went through every branch
+    outside = ~np.array([smap.inside(p) for p in ref.P])
+    assert smap.n_slots > 2048 and outside.sum() > 100 and sum(ref.shadow) > 300
+    assert ref.put_back > 10 and ref.refused_free > 10
+    assert max(ref.count) == cfg.average and max(ref.evidence) == cfg.max_evidence
+
+
+def test_add_points_rejects_points_it_cannot_key():
+    smap = _map()
+    for bad in ([np.nan, 0.1, 0.1], [0.1, np.inf, 0.1], [0.1, 0.1, 1e5]):
+        with pytest.raises(ValueError, match="not finite or lies more than"):
+            smap.add_points([[0.1, 0.1, 0.1], bad])
+    assert smap.n_slots == 0 and smap.version == 0  # nothing merged from a batch that was refused
+
 # ---------------------------------------------------------------------------- update: hits, misses, dropouts
 O = np.array([0.1, 0.21, 0.19])
 X = np.array([1.0, 0.0, 0.0])

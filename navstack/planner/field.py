@@ -184,7 +184,7 @@ class FieldPlanner:
     def _history(self, end: float, length: float, spacing: float = 0.02) -> NDArray[np.float64]:
         """The commanded path's ``length`` [m] up to arc length ``end``, every ``spacing`` [m], oldest first."""
         s = np.append(np.arange(max(end - length, 0.0), end - 0.5 * spacing, spacing), end)
-        return np.array([self.path.point_at(x)[0] for x in s])
+        return self.path.points_at(s)
 
     def _passed(self, p: NDArray[np.float64], k: int) -> int:
         """Goals from ``k`` on that the command ``p`` is within reach of (already there)."""

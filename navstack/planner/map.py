@@ -282,6 +282,98 @@ def _mark_ball(free, forigin, fcell, fdims, cx, cy, cz, radius):  # pragma: no c
                     free[i, j, k] = 1
 
 
+# voxel keys: the voxel index (ix, iy, iz) relative to the map origin, packed into one int64
+_KEY_BITS = 21
+_KEY_OFFSET = 1 << (_KEY_BITS - 1)  # each index must lie in [-_KEY_OFFSET, _KEY_OFFSET)
+
+
+@numba.njit(cache=True)
+def _new_voxel_table():  # pragma: no cover - jitted
+    """An empty voxel table: packed voxel key -> point slot (a numba typed dict)."""
+    return numba.typed.Dict.empty(key_type=numba.types.int64, value_type=numba.types.int64)
+
+
+@numba.njit(cache=True)
+def _voxel_keys(pts, origin, voxel):  # pragma: no cover - jitted
+    """The packed voxel key of each point (K,), and the index of the first point that is not finite or whose
+    voxel index does not fit in the key (-1: none).
+
+    ``floor((p - origin) / voxel)`` per axis, the same IEEE operations as numpy's (no fastmath): the same
+    voxel for every point, as the buckets and seen-free cells in :func:`_merge_points`."""
+    keys = np.empty(pts.shape[0], dtype=np.int64)
+    for t in range(pts.shape[0]):
+        key = 0
+        for c in range(3):
+            f = math.floor((pts[t, c] - origin[c]) / voxel)
+            if not -_KEY_OFFSET <= f < _KEY_OFFSET:  # NaN too
+                return keys, t
+            key = (key << _KEY_BITS) | (int(f) + _KEY_OFFSET)
+        keys[t] = key
+    return keys, -1
+
+
+@numba.njit(cache=True)
+def _merge_points(first, pts, keys, shadow, voxels, P, count, evidence, alive, nxt, is_shadow, head, n, origin,
+                  bucket, bdims, free, free_cell, fdims, average, initial_evidence, max_evidence, changed,
+                  n_changed):  # pragma: no cover - jitted
+    """Merge ``pts[first:]`` (packed voxel ``keys``) into their voxels (:meth:`SensedMap.add_points`), writing
+    the points added or moved to ``changed[n_changed:]``.
+
+    Stops before the first point that needs a new slot when all ``P.shape[0]`` are in use.  Returns
+    ``(points done, slots in use, n_changed)``."""
+    for t in range(first, pts.shape[0]):
+        px, py, pz = pts[t, 0], pts[t, 1], pts[t, 2]
+        key = keys[t]
+        idx = voxels[key] if key in voxels else -1
+        if shadow:
+            if idx >= 0:
+                continue  # a shadow is placed once ...
+            i = int(math.floor((px - origin[0]) / free_cell))
+            j = int(math.floor((py - origin[1]) / free_cell))
+            k = int(math.floor((pz - origin[2]) / free_cell))
+            if 0 <= i < fdims[0] and 0 <= j < fdims[1] and 0 <= k < fdims[2] and free[i, j, k] != 0:
+                continue  # ... and never where a ray has been
+        if idx >= 0 and alive[idx]:
+            c = min(count[idx] + 1, average)
+            count[idx] = c
+            evidence[idx] = min(evidence[idx] + 1, max_evidence)
+            sx = (px - P[idx, 0]) / c
+            sy = (py - P[idx, 1]) / c
+            sz = (pz - P[idx, 2]) / c
+            P[idx, 0] += sx
+            P[idx, 1] += sy
+            P[idx, 2] += sz
+            if sx * sx + sy * sy + sz * sz > 1e-6:
+                changed[n_changed, 0] = P[idx, 0]
+                changed[n_changed, 1] = P[idx, 1]
+                changed[n_changed, 2] = P[idx, 2]
+                n_changed += 1
+            continue
+        if idx < 0:
+            if n == P.shape[0]:
+                return t, n, n_changed
+            idx = n
+            n += 1
+            voxels[key] = idx
+            bi = _cell(px, origin, bucket, bdims, 0)
+            bj = _cell(py, origin, bucket, bdims, 1)
+            bk = _cell(pz, origin, bucket, bdims, 2)
+            nxt[idx] = head[bi, bj, bk]
+            head[bi, bj, bk] = idx
+            is_shadow[idx] = shadow
+        P[idx, 0] = px
+        P[idx, 1] = py
+        P[idx, 2] = pz
+        count[idx] = 1
+        evidence[idx] = initial_evidence
+        alive[idx] = True
+        changed[n_changed, 0] = px
+        changed[n_changed, 1] = py
+        changed[n_changed, 2] = pz
+        n_changed += 1
+    return pts.shape[0], n, n_changed
+
+
 # ------------------------------------------------------------------------------------------ class
 class SensedMap:
     """Surface points and seen-free cells over the box ``lo .. hi`` [m] (see the module docstring)."""
@@ -313,8 +405,9 @@ class SensedMap:
         self._next = np.full(1024, -1, dtype=np.int64)
         self._shadow = np.zeros(1024, dtype=np.bool_)
         self._n = 0
-        self._voxels: dict[tuple[int, int, int], int] = {}
-        self._shadow_voxels: dict[tuple[int, int, int], int] = {}
+        # packed voxel key -> slot (numba typed dicts), for the sensed points and the shadows
+        self._voxels = _new_voxel_table()
+        self._shadow_voxels = _new_voxel_table()
         self.version = 0
         """Incremented whenever a point is added, moved by more than a millimetre, or removed."""
         self.new_points = np.empty((0, 3))
@@ -359,51 +452,35 @@ class SensedMap:
             new[: self._n] = old[: self._n]
             setattr(self, name, new)
 
-    def _bucket(self, p: NDArray[np.float64]) -> tuple[int, int, int]:
-        b = np.floor((p - self.origin) / self.config.bucket).astype(np.int64)
-        b = np.clip(b, 0, self.bucket_dims - 1)
-        return int(b[0]), int(b[1]), int(b[2])
-
     def add_points(self, pts: ArrayLike, shadow: bool = False) -> None:
         """Merge surface points (K, 3) [m] into their voxels (``shadow``: shadow points, kept apart, never
-        put in a cell already seen free)."""
-        pts = np.asarray(pts, dtype=np.float64).reshape(-1, 3)
+        put in a cell already seen free).
+
+        A voxel's first point takes a new slot, linked into the bucket holding it; each further point moves
+        it a step of the running mean over at most ``average`` samples and adds one evidence (up to
+        ``max_evidence``); a point in a voxel whose point was removed puts it back (``initial_evidence``).  A
+        shadow is placed once: a shadow voxel takes no further points, even once its point is removed."""
+        pts = np.ascontiguousarray(np.asarray(pts, dtype=np.float64).reshape(-1, 3))
         cfg = self.config
-        keys = np.floor((pts - self.origin) / cfg.voxel).astype(np.int64)
+        keys, bad = _voxel_keys(pts, self.origin, cfg.voxel)
+        if bad >= 0:
+            raise ValueError(f"SensedMap.add_points: point {pts[bad]} is not finite or lies more than {_KEY_OFFSET} "
+                             f"voxels ({_KEY_OFFSET * cfg.voxel:g} m) from the map origin {self.origin}")
         voxels = self._shadow_voxels if shadow else self._voxels
-        changed = []
-        for key_arr, p in zip(keys, pts, strict=True):
-            key = (int(key_arr[0]), int(key_arr[1]), int(key_arr[2]))
-            idx = voxels.get(key)
-            if shadow and (idx is not None or self.is_seen_free(p)):
-                continue  # a shadow is placed once, and never where a ray has been
-            if idx is not None and self._alive[idx]:
-                c = min(int(self._count[idx]) + 1, cfg.average)
-                self._count[idx] = c
-                self._evidence[idx] = min(int(self._evidence[idx]) + 1, cfg.max_evidence)
-                step = (p - self._P[idx]) / c
-                self._P[idx] += step
-                if float(step @ step) > 1e-6:
-                    changed.append(self._P[idx].copy())
-                continue
-            if idx is None:
-                if self._n == self._P.shape[0]:
-                    self._grow()
-                idx = self._n
-                self._n += 1
-                voxels[key] = idx
-                b = self._bucket(p)
-                self._next[idx] = self.head[b]
-                self.head[b] = idx
-                self._shadow[idx] = shadow
-            self._P[idx] = p
-            self._count[idx] = 1
-            self._evidence[idx] = cfg.initial_evidence
-            self._alive[idx] = True
-            changed.append(p.copy())
-        if changed:
+        changed = np.empty((pts.shape[0], 3))
+        done = n_changed = 0
+        while True:
+            done, self._n, n_changed = _merge_points(
+                done, pts, keys, shadow, voxels, self._P, self._count, self._evidence, self._alive, self._next,
+                self._shadow, self.head, self._n, self.origin, cfg.bucket, self.bucket_dims, self.free,
+                cfg.free_cell, self.free_dims, cfg.average, cfg.initial_evidence, cfg.max_evidence, changed,
+                n_changed)
+            if done == pts.shape[0]:
+                break
+            self._grow()  # out of slots: double them, and go on from the point that needed one
+        if n_changed:
             self.version += 1
-            self.new_points = np.vstack([self.new_points, np.array(changed)])
+            self.new_points = np.vstack([self.new_points, changed[:n_changed]])
 
     def update(self, origins: ArrayLike, directions: ArrayLike, starts: ArrayLike, ranges: ArrayLike,
                hit: ArrayLike, informative: ArrayLike) -> None:

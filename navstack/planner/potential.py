@@ -28,7 +28,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from navstack.planner.map import nearest_distance
+from navstack.planner.proximity import distance_below
 
 __all__ = ["Repulsion", "cost_rate"]
 
@@ -80,14 +80,15 @@ class Repulsion:
 
 
 @numba.njit(cache=True)
-def cost_rate(px, py, pz, r_block, prm, P, alive, head, nxt, origin, bucket, bdims, free, fcell,
+def cost_rate(px, py, pz, r_block, prm, occ, P, alive, head, nxt, origin, bucket, bdims, free, fcell,
               fdims):  # pragma: no cover - jitted
     """Cost per metre of path at (px, py, pz), or ``BLOCKED`` (-1); ``r_block`` may be relaxed by the caller.
 
-    ``prm`` = :meth:`Repulsion.vector` (``prm[0]``, the nominal r_block, is not used here).
+    ``prm`` = :meth:`Repulsion.vector` (``prm[0]``, the nominal r_block, is not used here); ``occ`` the
+    map's :func:`~navstack.planner.proximity.occupied_near` mask.
     """
     reach = prm[1] if prm[1] > prm[3] else prm[3]
-    d = nearest_distance(px, py, pz, reach, P, alive, head, nxt, origin, bucket, bdims)
+    d = distance_below(px, py, pz, reach, occ, P, alive, head, nxt, origin, bucket, bdims)
     if d < r_block:
         return BLOCKED
     c = 0.0
@@ -152,29 +153,34 @@ def _rasterize(P, alive, n, origin, cell, dims, radius, out, value):  # pragma: 
 
 
 @numba.njit(cache=True, inline="always")
-def _push(keys, vals, n, key, val):  # pragma: no cover - jitted
-    """Push onto the binary min-heap ``keys[:n]`` / ``vals[:n]``; returns the new size."""
-    i = n
+def _sift_up(keys, cells, pos, i):  # pragma: no cover - jitted
+    """Move heap entry ``i`` up to its place; ``pos[cell]`` tracks each cell's entry."""
+    key = keys[i]
+    cell = cells[i]
     while i > 0:
         parent = (i - 1) >> 1
         if keys[parent] <= key:
             break
         keys[i] = keys[parent]
-        vals[i] = vals[parent]
+        cells[i] = cells[parent]
+        pos[cells[i]] = i
         i = parent
     keys[i] = key
-    vals[i] = val
-    return n + 1
+    cells[i] = cell
+    pos[cell] = i
 
 
 @numba.njit(cache=True, inline="always")
-def _pop(keys, vals, n):  # pragma: no cover - jitted
-    """Pop the smallest of the heap ``keys[:n]``; returns (key, value, new size)."""
+def _pop_min(keys, cells, pos, n):  # pragma: no cover - jitted
+    """Remove the smallest entry of the heap ``keys[:n]``; returns (key, cell, new size)."""
     key0 = keys[0]
-    val0 = vals[0]
+    cell0 = cells[0]
+    pos[cell0] = -2  # done
     n -= 1
+    if n == 0:
+        return key0, cell0, n
     key = keys[n]
-    val = vals[n]
+    cell = cells[n]
     i = 0
     while True:
         c = 2 * i + 1
@@ -185,21 +191,29 @@ def _pop(keys, vals, n):  # pragma: no cover - jitted
         if keys[c] >= key:
             break
         keys[i] = keys[c]
-        vals[i] = vals[c]
+        cells[i] = cells[c]
+        pos[cells[i]] = i
         i = c
     keys[i] = key
-    vals[i] = val
-    return key0, val0, n
+    cells[i] = cell
+    pos[cell] = i
+    return key0, cell0, n
 
 
 @numba.njit(cache=True)
 def _wavefront(cost, goal, reach, origin, cell, out):  # pragma: no cover - jitted
-    """Dijkstra over ``cost`` (per-metre weight, < 0 = blocked) from the cells within ``reach`` of ``goal``."""
+    """Dijkstra over ``cost`` (per-metre weight, < 0 = blocked) from the cells within ``reach`` of ``goal``.
+
+    An indexed binary heap (each cell at most once, its key lowered in place); the values are the unique
+    solution of the relaxation equations (positive steps), so they do not depend on the order of ties.
+    """
     nx, ny, nz = cost.shape
     out[:] = np.inf
-    cap = 27 * nx * ny * nz + 64
-    keys = np.empty(min(cap, 8 * nx * ny * nz + 64))
-    vals = np.empty(keys.shape[0], dtype=np.int64)
+    ncell = nx * ny * nz
+    keys = np.empty(ncell)
+    cells = np.empty(ncell, dtype=np.int64)
+    pos = np.full(ncell, -1, dtype=np.int64)  # -1 never queued, -2 done, else its heap entry
+    flat = out.reshape(ncell)
     n = 0
     gi = int(math.floor((goal[0] - origin[0]) / cell))
     gj = int(math.floor((goal[1] - origin[1]) / cell))
@@ -212,20 +226,22 @@ def _wavefront(cost, goal, reach, origin, cell, out):  # pragma: no cover - jitt
                 y = origin[1] + (j + 0.5) * cell - goal[1]
                 z = origin[2] + (k + 0.5) * cell - goal[2]
                 if x * x + y * y + z * z <= (reach + 0.5 * cell) ** 2 and cost[i, j, k] >= 0.0:
-                    out[i, j, k] = 0.0
-                    n = _push(keys, vals, n, 0.0, (i * ny + j) * nz + k)
+                    idx = (i * ny + j) * nz + k
+                    flat[idx] = 0.0
+                    keys[n] = 0.0
+                    cells[n] = idx
+                    _sift_up(keys, cells, pos, n)
+                    n += 1
     steps = np.empty(27)
     for di in range(-1, 2):
         for dj in range(-1, 2):
             for dk in range(-1, 2):
                 steps[(di + 1) * 9 + (dj + 1) * 3 + dk + 1] = cell * math.sqrt(di * di + dj * dj + dk * dk)
     while n > 0:
-        d, idx, n = _pop(keys, vals, n)
+        d, idx, n = _pop_min(keys, cells, pos, n)
         k = idx % nz
         j = (idx // nz) % ny
         i = idx // (ny * nz)
-        if d > out[i, j, k]:
-            continue
         c0 = cost[i, j, k]
         for di in range(-1, 2):
             ii = i + di
@@ -242,11 +258,19 @@ def _wavefront(cost, goal, reach, origin, cell, out):  # pragma: no cover - jitt
                     c = cost[ii, jj, kk]
                     if c < 0.0:
                         continue
+                    nb = (ii * ny + jj) * nz + kk
                     nd = d + steps[(di + 1) * 9 + (dj + 1) * 3 + dk + 1] * (1.0 + 0.5 * (c + c0))
-                    if nd < out[ii, jj, kk]:
-                        out[ii, jj, kk] = nd
-                        if n < keys.shape[0]:
-                            n = _push(keys, vals, n, nd, (ii * ny + jj) * nz + kk)
+                    if nd < flat[nb]:
+                        flat[nb] = nd
+                        p = pos[nb]
+                        if p == -1:
+                            keys[n] = nd
+                            cells[n] = nb
+                            _sift_up(keys, cells, pos, n)
+                            n += 1
+                        else:
+                            keys[p] = nd
+                            _sift_up(keys, cells, pos, p)
 
 
 def navigation_function(smap, goal: NDArray[np.float64], reach: float, lo: NDArray[np.float64],

@@ -43,6 +43,7 @@ from navstack.planner.potential import (
     cost_rate,
     navigation_function,
 )
+from navstack.planner.proximity import distance_below, occupied_near
 
 __all__ = ["NO_PATH", "PARTIAL", "REACHED", "ArmShape", "Plan", "SearchConfig", "search", "still_clear"]
 
@@ -367,7 +368,7 @@ def _chain(line, n, L, count, pts):  # pragma: no cover - jitted
 
 
 @numba.njit(cache=True)
-def _body_clear(qx, qy, qz, node, NP, NPAR, hist, L, r_link, r_arm, line, pts, P, alive, head, nxt, origin,
+def _body_clear(qx, qy, qz, node, NP, NPAR, hist, L, r_link, r_arm, line, pts, occ, P, alive, head, nxt, origin,
                 bucket, bdims, arm):  # pragma: no cover - jitted
     """The body behind the tip at q: the last link (a straight chord, inside the bends of the path) keeps
     ``r_link`` from every surface point, and with ``arm`` the flange (the sixth chord point) and the point
@@ -381,18 +382,18 @@ def _body_clear(qx, qy, qz, node, NP, NPAR, hist, L, r_link, r_arm, line, pts, P
         x = pts[0, 0] + f * (qx - pts[0, 0])
         y = pts[0, 1] + f * (qy - pts[0, 1])
         z = pts[0, 2] + f * (qz - pts[0, 2])
-        if nearest_distance(x, y, z, r_link, P, alive, head, nxt, origin, bucket, bdims) < r_link:
+        if distance_below(x, y, z, r_link, occ, P, alive, head, nxt, origin, bucket, bdims) < r_link:
             return False
     if arm and r_arm > 0.0:
         for i in (5, 6):
-            if nearest_distance(pts[i, 0], pts[i, 1], pts[i, 2], r_arm, P, alive, head, nxt, origin, bucket,
+            if distance_below(pts[i, 0], pts[i, 1], pts[i, 2], r_arm, occ, P, alive, head, nxt, origin, bucket,
                                 bdims) < r_arm:
                 return False
     return True
 
 
 @numba.njit(cache=True)
-def _arm_clear(qx, qy, qz, node, NP, NPAR, hist, L, arm_pts, flange, r, line, pts, P, alive, head, nxt, origin,
+def _arm_clear(qx, qy, qz, node, NP, NPAR, hist, L, arm_pts, flange, r, line, pts, occ, P, alive, head, nxt, origin,
                bucket, bdims):  # pragma: no cover - jitted
     """True if the arm's axis ``arm_pts`` translated by the flange's displacement (the sixth chord point
     behind q minus ``flange``) keeps ``r`` from every surface point: the lathe bed carries the arm along
@@ -402,7 +403,7 @@ def _arm_clear(qx, qy, qz, node, NP, NPAR, hist, L, arm_pts, flange, r, line, pt
         return True
     dx, dy, dz = pts[5, 0] - flange[0], pts[5, 1] - flange[1], pts[5, 2] - flange[2]
     for i in range(arm_pts.shape[0]):
-        if nearest_distance(arm_pts[i, 0] + dx, arm_pts[i, 1] + dy, arm_pts[i, 2] + dz, r, P, alive, head, nxt,
+        if distance_below(arm_pts[i, 0] + dx, arm_pts[i, 1] + dy, arm_pts[i, 2] + dz, r, occ, P, alive, head, nxt,
                             origin, bucket, bdims) < r:
             return False
     return True
@@ -410,7 +411,7 @@ def _arm_clear(qx, qy, qz, node, NP, NPAR, hist, L, arm_pts, flange, r, line, pt
 
 @numba.njit(cache=True)
 def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, rep, hist,
-                   nav, nav_origin, nav_cell, arm_pts, flange,
+                   nav, nav_origin, nav_cell, arm_pts, flange, occ,
                    P, alive, head, nxt, origin, bucket, bdims, free, fcell, fdims, box_lo, box_hi,
                    NP, NH, NK, NG, NPAR, NKAP, NDIR, NEND, NL):  # pragma: no cover - jitted
     """Hybrid A* (see the module docstring).  Node arrays are preallocated by the caller.
@@ -482,7 +483,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
                 continue
             closed[key] = True
             if use_arm and not _arm_clear(px, py, pz, NPAR[node], NP, NPAR, hist, link, arm_pts, flange, arm_reach,
-                                          line, chain_pts, P, alive, head, nxt, origin, bucket, bdims):
+                                          line, chain_pts, occ, P, alive, head, nxt, origin, bucket, bdims):
                 continue  # the arm, carried with the flange, would meet a sensed surface
         if k >= n_goals:
             return 0, node, expansions, n_nodes
@@ -509,7 +510,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
                     ok = False
                     break
                 rb = r_start if length + s < relax else rep[0]
-                c = cost_rate(qx, qy, qz, rb, rep, P, alive, head, nxt, origin, bucket, bdims, free, fcell, fdims)
+                c = cost_rate(qx, qy, qz, rb, rep, occ, P, alive, head, nxt, origin, bucket, bdims, free, fcell, fdims)
                 if c == BLOCKED:
                     ok = False
                     break
@@ -517,8 +518,8 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
                 # (checked every other sample and at the end; the flange and the arm's start at the end)
                 if j % 2 == 0 or j == n_samp:
                     rb = r_start if length + s < relax + link else rep[0]
-                    if not _body_clear(qx, qy, qz, node, NP, NPAR, hist, link, rb, r_arm, line, chain_pts, P, alive,
-                                       head, nxt, origin, bucket, bdims, j == n_samp):
+                    if not _body_clear(qx, qy, qz, node, NP, NPAR, hist, link, rb, r_arm, line, chain_pts, occ, P,
+                                       alive, head, nxt, origin, bucket, bdims, j == n_samp):
                         ok = False
                         break
                 cost += ds * (1.0 + c)
@@ -539,8 +540,8 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
             if length + s_end > max_len:
                 continue
             qx, qy, qz, tx, ty, tz = _arc(px, py, pz, hx, hy, hz, nx, ny, nz, kap, s_end)
-            if s_end < step and not _body_clear(qx, qy, qz, node, NP, NPAR, hist, link, rep[0], r_arm, line, chain_pts,
-                                                P, alive, head, nxt, origin, bucket, bdims, True):
+            if s_end < step and not _body_clear(qx, qy, qz, node, NP, NPAR, hist, link, rep[0], r_arm, line,
+                                                chain_pts, occ, P, alive, head, nxt, origin, bucket, bdims, True):
                 continue  # the goal was passed between two body checks: check where the path ends
             tn = math.sqrt(tx * tx + ty * ty + tz * tz)
             tx /= tn
@@ -719,7 +720,7 @@ def search(smap: SensedMap, start: ArrayLike, heading: ArrayLike, goals: ArrayLi
     box_hi = smap.origin + smap.free_dims * fcell - 1e-9
     status, last, expansions, _ = _search_kernel(
         p0, h0, k0, G, reach, rest, kap, dc, ds, cfg, rep, hist, nav.values, nav.origin, nav.cell, arm_pts, flange,
-        *smap.arrays(), free, fcell, fdims,
+        occupied_near(smap.head), *smap.arrays(), free, fcell, fdims,
         box_lo, box_hi, buf.P, buf.H, buf.K, buf.G, buf.PAR, buf.KAP, buf.DIR, buf.END, buf.L)
     if status == PARTIAL and last == 0:
         status = NO_PATH  # no state closer to the goal than the start: no way on

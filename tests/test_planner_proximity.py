@@ -1,0 +1,70 @@
+"""The search's proximity shortcut (navstack.planner.proximity): same answers as the full scan.
+
+References: the occupancy mask against a brute-force dilation in numpy; ``distance_below`` against
+:func:`navstack.planner.map.nearest_distance` (bit for bit) and against the brute-force nearest point,
+on random maps with points inside and beyond the map box, removed points and radii on both sides of
+the mask's reach.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from navstack.planner.map import MapConfig, SensedMap, nearest_distance
+from navstack.planner.proximity import REACH, distance_below, occupied_near
+
+
+def _brute_mask(head: np.ndarray) -> np.ndarray:
+    occ = head >= 0
+    out = np.zeros_like(occ)
+    for i, j, k in np.argwhere(occ):
+        out[max(i - REACH, 0): i + REACH + 1, max(j - REACH, 0): j + REACH + 1, max(k - REACH, 0): k + REACH + 1] = True
+    return out
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_occupied_near_is_the_dilation_of_the_filled_buckets(seed):
+    rng = np.random.default_rng(seed)
+    head = np.where(rng.random((9, 7, 11)) < 0.02 * (seed + 1), 5, -1).astype(np.int64)
+    head[0, 0, 0] = 3 if seed % 2 else -1  # a corner bucket
+    np.testing.assert_array_equal(occupied_near(head).astype(bool), _brute_mask(head))
+
+
+def test_occupied_near_of_an_empty_map_is_empty():
+    assert not occupied_near(np.full((4, 5, 6), -1, dtype=np.int64)).any()
+
+
+def _random_map(seed: int) -> SensedMap:
+    rng = np.random.default_rng(seed)
+    smap = SensedMap([0.0, 0.0, 0.0], [0.5, 0.4, 0.3], MapConfig(margin=0.1))
+    centres = rng.uniform(-0.3, 0.8, size=(6, 3))  # clusters, some beyond the box (edge buckets hold those)
+    pts = np.concatenate([c + 0.02 * rng.normal(size=(40, 3)) for c in centres])
+    smap.add_points(pts)
+    smap._alive[: smap.n_slots: 7] = False  # removed points stay in their buckets' lists
+    return smap
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_distance_below_equals_the_full_scan_bit_for_bit(seed):
+    smap = _random_map(seed)
+    arrays = smap.arrays()
+    occ = occupied_near(smap.head)
+    rng = np.random.default_rng(100 + seed)
+    live = smap.points
+    away = rng.normal(size=(600, 3))
+    away *= rng.uniform(0.07, 0.12, size=(600, 1)) / np.linalg.norm(away, axis=1, keepdims=True)
+    queries = np.concatenate([rng.uniform(-0.5, 1.0, size=(1500, 3)),
+                              live[rng.integers(0, len(live), 300)] + 0.03 * rng.normal(size=(300, 3)),
+                              live[rng.integers(0, len(live), 600)] + away])  # at the mask's edge
+    bucket = smap.config.bucket
+    cells = np.clip(np.floor((queries - smap.origin) / bucket).astype(int), 0, smap.bucket_dims - 1)
+    empty = occ[tuple(cells.T)] == 0
+    assert 200 < empty.sum() < len(queries) - 200  # both ways are exercised
+    for r in (0.01, 0.035, bucket, 0.075, REACH * bucket, REACH * bucket + 1e-3, 0.1, 0.115, 0.2):
+        for q in queries:
+            fast = distance_below(q[0], q[1], q[2], r, occ, *arrays)
+            full = nearest_distance(q[0], q[1], q[2], r, *arrays)
+            assert fast == full, (q, r, fast, full)
+            true = float(np.min(np.linalg.norm(live - q, axis=1)))
+            assert fast == pytest.approx(min(true, r), abs=1e-12) or true >= r
