@@ -251,15 +251,6 @@ def run_trial(
     return result
 
 
-def _axis_samples(points: np.ndarray, spacing: float) -> np.ndarray:
-    """Points every ``spacing`` [m] or closer along the polyline ``points`` (k, 3), its vertices included."""
-    out = [points[0]]
-    for a, b in zip(points[:-1], points[1:], strict=True):
-        n = max(1, int(np.ceil(np.linalg.norm(b - a) / spacing)))
-        out += [a + (b - a) * (j / n) for j in range(1, n + 1)]
-    return np.array(out)
-
-
 # ---- factories named in navstack.registry ------------------------------------------------------------
 def make_slither_controller(chain, q0, dt: float, cfg: TrialConfig):
     """The slithering controller of equation (4) (``--controller slither``)."""
@@ -420,10 +411,12 @@ class _Simulation:
         tip0 = self._to_world(F[21, :3, 3])
         heading0 = self.R0 @ F[20, :3, 0]
         self.rng = np.random.default_rng(seed)
+        from navstack.generate.geometry import segment_samples  # the arm's axis, sampled for the planner
+
         entry = PLANNERS[planner]
         arm_frames = np.array([self._to_world(F[i, :3, 3]) for i in range(1, 10)])
         context = PlannerContext(start=tip0, heading=heading0, goals=self.goals, tolerances=self.tolerances,
-                                 dt=self.dt, config=cfg, arm=_axis_samples(arm_frames, 0.05),
+                                 dt=self.dt, config=cfg, arm=segment_samples(arm_frames[:-1], arm_frames[1:], 0.05),
                                  arm_radius=world.robot.arm_radius, flange=arm_frames[-1],
                                  dynamic=bool(self.scene.movers))
         self.planner = load(entry.factory)(context)

@@ -268,7 +268,7 @@ def _wavefront(cost, goal, reach, origin, cell, out):  # pragma: no cover - jitt
                             cells[n] = nb
                             _sift_up(keys, cells, pos, n)
                             n += 1
-                        else:
+                        elif p >= 0:  # queued: lower its key (a finished cell, -2, is never improved)
                             keys[p] = nd
                             _sift_up(keys, cells, pos, p)
 

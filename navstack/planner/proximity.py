@@ -25,31 +25,31 @@ REACH = 2
 
 
 @numba.njit(cache=True)
+def _dilate(src, dst, axis):  # pragma: no cover - jitted
+    """``dst`` = 1 within ``REACH`` cells along ``axis`` of every nonzero cell of ``src`` (``dst`` zeroed first)."""
+    dst[:] = 0
+    nx, ny, nz = src.shape
+    di, dj, dk = int(axis == 0), int(axis == 1), int(axis == 2)
+    for i in range(nx):
+        for j in range(ny):
+            for k in range(nz):
+                if src[i, j, k]:
+                    for t in range(-REACH, REACH + 1):
+                        ii, jj, kk = i + t * di, j + t * dj, k + t * dk
+                        if 0 <= ii < nx and 0 <= jj < ny and 0 <= kk < nz:
+                            dst[ii, jj, kk] = 1
+
+
+@numba.njit(cache=True)
 def occupied_near(head: NDArray[np.int64]) -> NDArray[np.uint8]:  # pragma: no cover - jitted
-    """1 where a bucket within ``REACH`` (Chebyshev, in buckets) of the cell holds a point slot, else 0."""
-    nx, ny, nz = head.shape
-    a = np.zeros((nx, ny, nz), dtype=np.uint8)
-    b = np.zeros((nx, ny, nz), dtype=np.uint8)
-    for i in range(nx):  # dilate along x
-        for j in range(ny):
-            for k in range(nz):
-                if head[i, j, k] >= 0:
-                    for ii in range(max(i - REACH, 0), min(i + REACH + 1, nx)):
-                        a[ii, j, k] = 1
-    for i in range(nx):  # then y
-        for j in range(ny):
-            for k in range(nz):
-                if a[i, j, k]:
-                    for jj in range(max(j - REACH, 0), min(j + REACH + 1, ny)):
-                        b[i, jj, k] = 1
-    a[:] = 0
-    for i in range(nx):  # then z
-        for j in range(ny):
-            for k in range(nz):
-                if b[i, j, k]:
-                    for kk in range(max(k - REACH, 0), min(k + REACH + 1, nz)):
-                        a[i, j, kk] = 1
-    return a
+    """1 where a bucket within ``REACH`` (Chebyshev, in buckets) of the cell holds a point slot, else 0: the
+    filled buckets dilated along x, then y, then z."""
+    a = (head >= 0).astype(np.uint8)
+    b = np.empty_like(a)
+    _dilate(a, b, 0)
+    _dilate(b, a, 1)
+    _dilate(a, b, 2)
+    return b
 
 
 @numba.njit(cache=True)

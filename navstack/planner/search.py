@@ -35,7 +35,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from navstack.planner.map import SensedMap, nearest_distance
+from navstack.planner.map import SensedMap
 from navstack.planner.potential import (
     BLOCKED,
     NavigationFunction,
@@ -368,6 +368,42 @@ def _chain(line, n, L, count, pts):  # pragma: no cover - jitted
 
 
 @numba.njit(cache=True)
+def _last_link_clear(pts, qx, qy, qz, r, occ, P, alive, head, nxt, origin, bucket, bdims):  # pragma: no cover
+    """The last link, the chord from the first chain point ``pts[0]`` to the tip q, keeps ``r`` from every
+    surface point (checked at :data:`_CHORD_FRACTIONS` of it)."""
+    for f in _CHORD_FRACTIONS:
+        x = pts[0, 0] + f * (qx - pts[0, 0])
+        y = pts[0, 1] + f * (qy - pts[0, 1])
+        z = pts[0, 2] + f * (qz - pts[0, 2])
+        if distance_below(x, y, z, r, occ, P, alive, head, nxt, origin, bucket, bdims) < r:
+            return False
+    return True
+
+
+@numba.njit(cache=True)
+def _flange_clear(pts, r, occ, P, alive, head, nxt, origin, bucket, bdims):  # pragma: no cover - jitted
+    """The flange (chain point 5) and the point one link behind it (6), where the arm begins, keep ``r``."""
+    for i in (5, 6):
+        if distance_below(pts[i, 0], pts[i, 1], pts[i, 2], r, occ, P, alive, head, nxt, origin, bucket, bdims) < r:
+            return False
+    return True
+
+
+@numba.njit(cache=True)
+def _arm_shifted_clear(pts, arm_pts, flange, r, occ, P, alive, head, nxt, origin, bucket,
+                       bdims):  # pragma: no cover - jitted
+    """The arm's axis ``arm_pts`` translated by the flange's displacement (chain point 5 minus ``flange``)
+    keeps ``r`` from every surface point: the lathe bed carries the arm along behind the serpentine, in
+    about its starting posture."""
+    dx, dy, dz = pts[5, 0] - flange[0], pts[5, 1] - flange[1], pts[5, 2] - flange[2]
+    for i in range(arm_pts.shape[0]):
+        if distance_below(arm_pts[i, 0] + dx, arm_pts[i, 1] + dy, arm_pts[i, 2] + dz, r, occ, P, alive, head, nxt,
+                          origin, bucket, bdims) < r:
+            return False
+    return True
+
+
+@numba.njit(cache=True)
 def _body_clear(qx, qy, qz, node, NP, NPAR, hist, L, r_link, r_arm, line, pts, occ, P, alive, head, nxt, origin,
                 bucket, bdims, arm):  # pragma: no cover - jitted
     """The body behind the tip at q: the last link (a straight chord, inside the bends of the path) keeps
@@ -378,35 +414,20 @@ def _body_clear(qx, qy, qz, node, NP, NPAR, hist, L, r_link, r_arm, line, pts, o
     m = _chain(line, n, L, count, pts)
     if m < count:
         return True
-    for f in _CHORD_FRACTIONS:
-        x = pts[0, 0] + f * (qx - pts[0, 0])
-        y = pts[0, 1] + f * (qy - pts[0, 1])
-        z = pts[0, 2] + f * (qz - pts[0, 2])
-        if distance_below(x, y, z, r_link, occ, P, alive, head, nxt, origin, bucket, bdims) < r_link:
-            return False
-    if arm and r_arm > 0.0:
-        for i in (5, 6):
-            if distance_below(pts[i, 0], pts[i, 1], pts[i, 2], r_arm, occ, P, alive, head, nxt, origin, bucket,
-                                bdims) < r_arm:
-                return False
-    return True
+    if not _last_link_clear(pts, qx, qy, qz, r_link, occ, P, alive, head, nxt, origin, bucket, bdims):
+        return False
+    return not (arm and r_arm > 0.0) or _flange_clear(pts, r_arm, occ, P, alive, head, nxt, origin, bucket, bdims)
 
 
 @numba.njit(cache=True)
 def _arm_clear(qx, qy, qz, node, NP, NPAR, hist, L, arm_pts, flange, r, line, pts, occ, P, alive, head, nxt, origin,
                bucket, bdims):  # pragma: no cover - jitted
-    """True if the arm's axis ``arm_pts`` translated by the flange's displacement (the sixth chord point
-    behind q minus ``flange``) keeps ``r`` from every surface point: the lathe bed carries the arm along
-    behind the serpentine, in about its starting posture."""
+    """True if the arm, carried with the flange of the chain behind q (:func:`_arm_shifted_clear`), keeps ``r``
+    from every surface point."""
     n = _backward(qx, qy, qz, node, NP, NPAR, hist, 6.5 * L, line)
     if _chain(line, n, L, 6, pts) < 6:
         return True
-    dx, dy, dz = pts[5, 0] - flange[0], pts[5, 1] - flange[1], pts[5, 2] - flange[2]
-    for i in range(arm_pts.shape[0]):
-        if distance_below(arm_pts[i, 0] + dx, arm_pts[i, 1] + dy, arm_pts[i, 2] + dz, r, occ, P, alive, head, nxt,
-                            origin, bucket, bdims) < r:
-            return False
-    return True
+    return _arm_shifted_clear(pts, arm_pts, flange, r, occ, P, alive, head, nxt, origin, bucket, bdims)
 
 
 @numba.njit(cache=True)
@@ -578,18 +599,18 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
 
 
 @numba.njit(cache=True)
-def _path_clear(pts, hist, every, link, r_block, r_arm, arm_pts, flange, arm_reach, P, alive, head, nxt, origin,
+def _path_clear(pts, hist, every, link, r_block, r_arm, arm_pts, flange, arm_reach, occ, P, alive, head, nxt, origin,
                 bucket, bdims):  # pragma: no cover - jitted
     """True if the tip path ``pts`` keeps ``r_block`` from every surface point at each sample, and the
     body behind it (checked every ``every`` samples, the history ``hist`` behind ``pts[0]``) is clear: the
     last link, and the arm carried with the flange (or, without ``arm_pts``, the flange and the point one
-    link behind it, ``r_arm``)."""
+    link behind it, ``r_arm``); the same checks as the search's."""
     n = pts.shape[0]
     line = np.empty((n + hist.shape[0] + 2, 3))
     chain_pts = np.empty((8, 3))
     for i in range(n):
-        if nearest_distance(pts[i, 0], pts[i, 1], pts[i, 2], r_block, P, alive, head, nxt, origin, bucket,
-                            bdims) < r_block:
+        if distance_below(pts[i, 0], pts[i, 1], pts[i, 2], r_block, occ, P, alive, head, nxt, origin, bucket,
+                          bdims) < r_block:
             return False
     for i in range(every, n, every):
         m = 0
@@ -599,26 +620,17 @@ def _path_clear(pts, hist, every, link, r_block, r_arm, arm_pts, flange, arm_rea
         for j in range(hist.shape[0] - 2, -1, -1):
             line[m] = hist[j]
             m += 1
-        c = _chain(line, m, link, 7, chain_pts)
-        if c < 7:
+        if _chain(line, m, link, 7, chain_pts) < 7:
             continue
-        for f in _CHORD_FRACTIONS:
-            x = chain_pts[0, 0] + f * (pts[i, 0] - chain_pts[0, 0])
-            y = chain_pts[0, 1] + f * (pts[i, 1] - chain_pts[0, 1])
-            z = chain_pts[0, 2] + f * (pts[i, 2] - chain_pts[0, 2])
-            if nearest_distance(x, y, z, r_block, P, alive, head, nxt, origin, bucket, bdims) < r_block:
-                return False
+        if not _last_link_clear(chain_pts, pts[i, 0], pts[i, 1], pts[i, 2], r_block, occ, P, alive, head, nxt,
+                                origin, bucket, bdims):
+            return False
         if arm_pts.shape[0] > 0:
-            dx, dy, dz = chain_pts[5, 0] - flange[0], chain_pts[5, 1] - flange[1], chain_pts[5, 2] - flange[2]
-            for a in range(arm_pts.shape[0]):
-                if nearest_distance(arm_pts[a, 0] + dx, arm_pts[a, 1] + dy, arm_pts[a, 2] + dz, arm_reach, P,
-                                    alive, head, nxt, origin, bucket, bdims) < arm_reach:
-                    return False
-            continue
-        for q in (5, 6):
-            if nearest_distance(chain_pts[q, 0], chain_pts[q, 1], chain_pts[q, 2], r_arm, P, alive, head, nxt,
-                                origin, bucket, bdims) < r_arm:
+            if not _arm_shifted_clear(chain_pts, arm_pts, flange, arm_reach, occ, P, alive, head, nxt, origin,
+                                      bucket, bdims):
                 return False
+        elif not _flange_clear(chain_pts, r_arm, occ, P, alive, head, nxt, origin, bucket, bdims):
+            return False
     return True
 
 
@@ -635,7 +647,8 @@ def still_clear(smap: SensedMap, plan: Plan, s: float, history: ArrayLike, confi
     every = max(1, int(round(config.step / max(spacing, 1e-6))))
     arm_pts, flange, reach = _arm_arrays(arm, config)
     return bool(_path_clear(pts, hist, every, config.link_length, repulsion.r_block,
-                            min(config.arm_clearance, smap.config.bucket), arm_pts, flange, reach, *smap.arrays()))
+                            min(config.arm_clearance, smap.config.bucket), arm_pts, flange, reach,
+                            occupied_near(smap.head), *smap.arrays()))
 
 
 # ------------------------------------------------------------------------------------------ driver
