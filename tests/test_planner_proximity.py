@@ -68,3 +68,55 @@ def test_distance_below_equals_the_full_scan_bit_for_bit(seed):
             assert fast == full, (q, r, fast, full)
             true = float(np.min(np.linalg.norm(live - q, axis=1)))
             assert fast == pytest.approx(min(true, r), abs=1e-12) or true >= r
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_samples_clear_is_distance_below_at_every_sample(seed):
+    from navstack.planner.proximity import samples_clear
+
+    smap = _random_map(seed)
+    arrays = smap.arrays()
+    occ = occupied_near(smap.head)
+    rng = np.random.default_rng(200 + seed)
+    live = smap.points
+    work = np.empty((16, 3))
+    bucket = smap.config.bucket
+    outcomes = {True: 0, False: 0}
+    for r in (0.01, 0.028, 0.035, bucket - 2e-6, bucket, 0.05):
+        for t in range(300):
+            a = (live[rng.integers(0, len(live))] + 0.06 * rng.normal(size=3) if t % 3
+                 else rng.uniform(-0.5, 1.0, size=3))  # near the clusters, or anywhere (also beyond the box)
+            d = rng.normal(size=3)
+            b = a + rng.uniform(0.02, 0.25) * d / np.linalg.norm(d)
+            fracs = (np.array([1, 2, 3, 4, 5]) / 6.0 if t % 2 else np.sort(rng.random(rng.integers(1, 9))))
+            got = samples_clear(*a, *b, fracs, r, work, occ, *arrays)
+            want = all(distance_below(*(a + f * (b - a)), r, occ, *arrays) >= r for f in fracs)
+            assert got == want, (a, b, fracs, r)
+            outcomes[got] += 1
+    assert min(outcomes.values()) > 300, outcomes  # both answers, many times
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_distances_below_is_distance_below_bit_for_bit(seed):
+    from navstack.planner.proximity import distances_below
+
+    smap = _random_map(seed)
+    arrays = smap.arrays()
+    occ = occupied_near(smap.head)
+    rng = np.random.default_rng(300 + seed)
+    live = smap.points
+    bucket = smap.config.bucket
+    cells = np.empty((8, 3), dtype=np.int64)
+    out = np.empty(8)
+    below = 0
+    for r in (0.01, 0.035, 0.075, REACH * bucket, REACH * bucket + 1e-3, 0.1):
+        for t in range(250):
+            p = live[rng.integers(0, len(live))] + 0.05 * rng.normal(size=3) if t % 4 else rng.uniform(-0.5, 1, 3)
+            d = rng.normal(size=3)
+            n = int(rng.integers(1, 9))
+            xs = p + np.outer(np.arange(n), 0.01 * d / np.linalg.norm(d))  # a primitive's samples, 1 cm apart
+            distances_below(xs, n, r, cells, out, occ, *arrays)
+            want = [distance_below(*x, r, occ, *arrays) for x in xs]
+            assert out[:n].tolist() == want, (xs, r)
+            below += sum(w < r for w in want)
+    assert below > 500

@@ -87,8 +87,20 @@ def cost_rate(px, py, pz, r_block, prm, occ, P, alive, head, nxt, origin, bucket
     ``prm`` = :meth:`Repulsion.vector` (``prm[0]``, the nominal r_block, is not used here); ``occ`` the
     map's :func:`~navstack.planner.proximity.occupied_near` mask.
     """
-    reach = prm[1] if prm[1] > prm[3] else prm[3]
-    d = distance_below(px, py, pz, reach, occ, P, alive, head, nxt, origin, bucket, bdims)
+    d = distance_below(px, py, pz, cost_reach(prm), occ, P, alive, head, nxt, origin, bucket, bdims)
+    return cost_at(d, px, py, pz, r_block, prm, origin, free, fcell, fdims)
+
+
+@numba.njit(cache=True, inline="always")
+def cost_reach(prm):  # pragma: no cover - jitted
+    """How far [m] :func:`cost_rate` looks for surface points: the larger of the influence and unseen radii."""
+    return prm[1] if prm[1] > prm[3] else prm[3]
+
+
+@numba.njit(cache=True)
+def cost_at(d, px, py, pz, r_block, prm, origin, free, fcell, fdims):  # pragma: no cover - jitted
+    """:func:`cost_rate` at (px, py, pz) given ``d``, its distance to the nearest surface point up to
+    :func:`cost_reach` (``distance_below``)."""
     if d < r_block:
         return BLOCKED
     c = 0.0

@@ -40,16 +40,17 @@ from navstack.planner.potential import (
     BLOCKED,
     NavigationFunction,
     Repulsion,
-    cost_rate,
+    cost_at,
+    cost_reach,
     navigation_function,
 )
-from navstack.planner.proximity import distance_below, occupied_near
+from navstack.planner.proximity import distance_below, distances_below, occupied_near, samples_clear
 
 __all__ = ["NO_PATH", "PARTIAL", "REACHED", "ArmShape", "Plan", "SearchConfig", "search", "still_clear"]
 
 REACHED, PARTIAL, NO_PATH = 0, 1, 2
 
-_CHORD_FRACTIONS = (1.0 / 6.0, 2.0 / 6.0, 0.5, 4.0 / 6.0, 5.0 / 6.0)
+_CHORD_FRACTIONS = np.array([1.0 / 6.0, 2.0 / 6.0, 0.5, 4.0 / 6.0, 5.0 / 6.0])
 """Where along the last link (a 0.2 m chord) its clearance is checked: every 3.3 cm."""
 
 
@@ -370,14 +371,9 @@ def _chain(line, n, L, count, pts):  # pragma: no cover - jitted
 @numba.njit(cache=True)
 def _last_link_clear(pts, qx, qy, qz, r, occ, P, alive, head, nxt, origin, bucket, bdims):  # pragma: no cover
     """The last link, the chord from the first chain point ``pts[0]`` to the tip q, keeps ``r`` from every
-    surface point (checked at :data:`_CHORD_FRACTIONS` of it)."""
-    for f in _CHORD_FRACTIONS:
-        x = pts[0, 0] + f * (qx - pts[0, 0])
-        y = pts[0, 1] + f * (qy - pts[0, 1])
-        z = pts[0, 2] + f * (qz - pts[0, 2])
-        if distance_below(x, y, z, r, occ, P, alive, head, nxt, origin, bucket, bdims) < r:
-            return False
-    return True
+    surface point (checked at :data:`_CHORD_FRACTIONS` of it); ``pts[8:24]`` is scratch."""
+    return samples_clear(pts[0, 0], pts[0, 1], pts[0, 2], qx, qy, qz, _CHORD_FRACTIONS, r, pts[8:], occ, P, alive,
+                         head, nxt, origin, bucket, bdims)
 
 
 @numba.njit(cache=True)
@@ -408,8 +404,8 @@ def _body_clear(qx, qy, qz, node, NP, NPAR, hist, L, r_link, r_arm, line, pts, o
                 bucket, bdims, arm):  # pragma: no cover - jitted
     """The body behind the tip at q: the last link (a straight chord, inside the bends of the path) keeps
     ``r_link`` from every surface point, and with ``arm`` the flange (the sixth chord point) and the point
-    one link behind it, where the arm begins, keep ``r_arm``."""
-    count = 7 if arm else 1
+    one link behind it, where the arm begins, keep ``r_arm`` (the chain is followed that far only then)."""
+    count = 7 if arm and r_arm > 0.0 else 1
     n = _backward(qx, qy, qz, node, NP, NPAR, hist, (count + 0.5) * L, line)
     m = _chain(line, n, L, count, pts)
     if m < count:
@@ -461,7 +457,11 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
     r_arm = 0.0 if use_arm else cfg[13]  # the flange and the point behind it, only without the arm's shape
     arm_reach = cfg[16]
     line = np.empty((512, 3))
-    chain_pts = np.empty((8, 3))
+    chain_pts = np.empty((24, 3))  # the chain's points, then scratch
+    samp = np.empty((n_samp, 3))
+    samp_cells = np.empty((n_samp, 3), dtype=np.int64)
+    samp_d = np.empty(n_samp)
+    c_reach = cost_reach(rep)
     n_goals = goals.shape[0]
     cap = NP.shape[0]
     dims = np.empty(3, dtype=np.int64)
@@ -523,15 +523,20 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
             s_end = step
             ds = step / n_samp
             length = NL[node]
+            for j in range(1, n_samp + 1):  # the samples, and their distances to the map in one scan
+                samp[j - 1, 0], samp[j - 1, 1], samp[j - 1, 2], _, _, _ = _arc(px, py, pz, hx, hy, hz, nx, ny, nz,
+                                                                               kap, j * ds)
+            distances_below(samp, n_samp, c_reach, samp_cells, samp_d, occ, P, alive, head, nxt, origin, bucket,
+                            bdims)
             for j in range(1, n_samp + 1):
                 s = j * ds
-                qx, qy, qz, _, _, _ = _arc(px, py, pz, hx, hy, hz, nx, ny, nz, kap, s)
+                qx, qy, qz = samp[j - 1, 0], samp[j - 1, 1], samp[j - 1, 2]
                 if qx < box_lo[0] or qy < box_lo[1] or qz < box_lo[2] or qx > box_hi[0] or qy > box_hi[1] \
                         or qz > box_hi[2]:
                     ok = False
                     break
                 rb = r_start if length + s < relax else rep[0]
-                c = cost_rate(qx, qy, qz, rb, rep, occ, P, alive, head, nxt, origin, bucket, bdims, free, fcell, fdims)
+                c = cost_at(samp_d[j - 1], qx, qy, qz, rb, rep, origin, free, fcell, fdims)
                 if c == BLOCKED:
                     ok = False
                     break
@@ -607,7 +612,7 @@ def _path_clear(pts, hist, every, link, r_block, r_arm, arm_pts, flange, arm_rea
     link behind it, ``r_arm``); the same checks as the search's."""
     n = pts.shape[0]
     line = np.empty((n + hist.shape[0] + 2, 3))
-    chain_pts = np.empty((8, 3))
+    chain_pts = np.empty((24, 3))  # the chain's points, then scratch
     for i in range(n):
         if distance_below(pts[i, 0], pts[i, 1], pts[i, 2], r_block, occ, P, alive, head, nxt, origin, bucket,
                           bdims) < r_block:
