@@ -233,7 +233,7 @@ def run_trial(
 
         write_run_world(world, out)  # world.json (meshes copied to out/meshes/): animate and view read it
 
-    sim = _Simulation(world, controller, planner, int(seed), cfg)
+    sim = _Simulation(world, controller, planner, int(seed), cfg, visuals=render)
     wall0 = time.perf_counter()
     try:
         reason = sim.run()
@@ -334,14 +334,15 @@ def check_start(world) -> None:
     """
     from navstack.sim._bullet import direct_client
     from navstack.sim.body import RobotBody
-    from navstack.sim.scene import Scene
+    from navstack.sim.scene import Scene, SceneOptions
 
     client = direct_client()
     try:
         body = RobotBody.build(client, jpl_serpentine(), world.robot.base.transform(),
-                               serpentine_radius=world.robot.serpentine_radius, arm_radius=world.robot.arm_radius)
+                               serpentine_radius=world.robot.serpentine_radius, arm_radius=world.robot.arm_radius,
+                               visuals=False)
         body.reset(world.robot.q0)
-        scene = Scene.build(client, world)
+        scene = Scene.build(client, world, SceneOptions(visuals=False))
         client.performCollisionDetection()
         hits = scene.touching(body.body_id)
     finally:
@@ -370,11 +371,13 @@ def _save(out: Path | None, sim: _Simulation, reason: str, error: str | None, wa
 class _Simulation:
     """The PyBullet side and the pipeline objects of one trial."""
 
-    def __init__(self, world, controller: str, planner: str, seed: int, cfg: TrialConfig) -> None:
+    def __init__(self, world, controller: str, planner: str, seed: int, cfg: TrialConfig,
+                 visuals: bool = False) -> None:
+        """``visuals``: build the bodies with visual shapes (for ``render_scene``; nothing else reads them)."""
         from navstack.registry import CONTROLLERS, PLANNERS, PlannerContext, load
         from navstack.sim._bullet import direct_client
         from navstack.sim.body import RobotBody
-        from navstack.sim.scene import Scene
+        from navstack.sim.scene import Scene, SceneOptions
         from navstack.sim.servo import JointServo
 
         self.world = world
@@ -394,10 +397,11 @@ class _Simulation:
             self.T0,
             serpentine_radius=robot.serpentine_radius,
             arm_radius=robot.arm_radius,
+            visuals=visuals,
         )
         self.q0 = self.chain.check(robot.q0)
         self.body.reset(self.q0)
-        self.scene = Scene.build(self.client, world)
+        self.scene = Scene.build(self.client, world, SceneOptions(visuals=visuals))
         for obstacle in self.scene.body_ids:  # contact is measured, not simulated (module docstring)
             for link in range(-1, self.client.getNumJoints(self.body.body_id)):
                 self.client.setCollisionFilterPair(self.body.body_id, obstacle, link, -1, 0)

@@ -129,3 +129,36 @@ def test_servo_rejects_nan(client):
 def test_servo_config_validation(kwargs, field):
     with pytest.raises(ValueError, match=field):
         ServoConfig(**kwargs)
+
+
+def test_without_visuals_the_same_body_for_physics_and_rays(client):
+    """``visuals=False`` (trials without pictures): the same links, masses, link states after servoed steps and
+    ray hits on the robot, bit for bit, as the body with visual shapes."""
+    rng = np.random.default_rng(11)
+    q0 = rng.uniform(ROBOT.lower, ROBOT.upper) * 0.3
+    q1 = q0 + 0.05
+    targets = (_base() @ ROBOT.frames(q0))[1:, :3, 3][rng.integers(1, 21, 100)]  # at the links
+    away = rng.normal(size=(100, 3))
+    starts = targets + 0.5 * away / np.linalg.norm(away, axis=1, keepdims=True)
+    ends = 2.0 * targets - starts
+    bare_client = BulletClient(connection_mode=pybullet.DIRECT)
+    try:
+        states = []
+        for c, visuals in ((client, True), (bare_client, False)):
+            body = RobotBody.build(c, ROBOT, _base(), visuals=visuals)
+            body.reset(q0)
+            servo = JointServo(body, ServoConfig())
+            servo.hold(q0)
+            for _ in range(5):
+                servo.command(q1, np.zeros(ROBOT.n))
+                servo.step()
+            c.performCollisionDetection()
+            links = range(c.getNumJoints(body.body_id))
+            states.append((body.joint_state()[0].tolist(),
+                           [c.getDynamicsInfo(body.body_id, k)[0] for k in links],
+                           [c.getLinkState(body.body_id, k)[:2] for k in links],
+                           [(h[0], h[1], h[2]) for h in c.rayTestBatch(starts, ends)]))
+        assert states[0] == states[1]
+        assert sum(h[0] >= 0 for h in states[0][3]) > 20  # the rays do hit the robot
+    finally:
+        bare_client.disconnect()

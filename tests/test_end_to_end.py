@@ -47,7 +47,8 @@ def gated_run_trial(world, **kwargs):
 
 
 GATED_CLI = """
-import functools, sys
+import functools, signal, sys
+signal.signal(signal.SIGINT, signal.default_int_handler)  # as in a terminal, even if the test runner ignores it
 sys.path.insert(0, {tests!r})
 from test_end_to_end import gated_run_trial
 from navstack import cli, sweep

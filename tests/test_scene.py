@@ -377,3 +377,38 @@ def test_touching_names_each_obstacle_of_a_compound_body(client):
         assert [i for i, _ in scene.touching(probe)] == [3]
         assert client.getNumBodies() == n  # the temporary bodies are gone
         scene.remove()
+
+
+@pytest.mark.parametrize("combine", [True, False])
+def test_without_visuals_the_same_collision_world(client, tmp_path, combine):
+    """``SceneOptions(visuals=False)`` (trials without pictures): none of our visual shapes, and every ray and
+    distance the same, bit for bit, as with them: primitives (compound or one body each), a mesh, a mover."""
+    stl = write_cube_stl(tmp_path / "c.stl")
+    world = world_of(CYL, Box(center=[1, 1, 0], half_extents=[0.1, 0.2, 0.1], rpy=[0.2, 0.1, 0.3]),
+                     Sphere(center=[0.2, 0.9, 0.3], radius=0.1), Mesh(path=stl, position=[-1, 0, 0]),
+                     Sphere(center=[0.6, 0.6, 0.6], radius=0.08, motion=LinearMotion(velocity=[0.1, 0.0, 0.0])))
+    bare_client = bullet_client.BulletClient(connection_mode=p.DIRECT)
+    try:
+        shown = Scene.build(client, world, SceneOptions(combine_primitives=combine))
+        bare = Scene.build(bare_client, world, SceneOptions(combine_primitives=combine, visuals=False))
+        rgba = {tuple(np.round(v[7], 3)) for b in bare.body_ids for v in bare_client.getVisualShapeData(b)}
+        assert SceneOptions().primitive_rgba not in rgba  # none of ours (PyBullet may draw collision shapes)
+        rng = np.random.default_rng(3)
+        for t in (0.0, 2.5):
+            shown.update(t)
+            bare.update(t)
+            for c in (client, bare_client):
+                c.performCollisionDetection()
+            starts = rng.uniform(-1.5, 1.5, size=(200, 3))
+            aims = np.array([[0.6, 0.1, 0.45], [1, 1, 0], [0.2, 0.9, 0.3], [-1, 0, 0], [0.6 + 0.1 * t, 0.6, 0.6]])
+            ends = starts + 2.0 * (aims[rng.integers(0, 5, 200)] + 0.1 * rng.normal(size=(200, 3)) - starts)
+            hits = [[(h[0], h[2], h[3]) for h in c.rayTestBatch(starts, ends)] for c in (client, bare_client)]
+            assert hits[0] == hits[1]
+            assert sum(h[0] >= 0 for h in hits[0]) > 20  # the rays do meet the obstacles
+            probes = make_probe(client), make_probe(bare_client)
+            for x in rng.uniform(-1.2, 1.2, size=(30, 3)):
+                place(client, probes[0], x)
+                place(bare_client, probes[1], x)
+                assert shown.clearance(probes[0], 1.0) == bare.clearance(probes[1], 1.0)
+    finally:
+        bare_client.disconnect()

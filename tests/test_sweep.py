@@ -463,7 +463,8 @@ def test_animate_failures_keeps_and_animates_only_the_failed_trials(tmp_path, mo
 # ---------------------------------------------------------------------------------------------- real kills
 
 KILL_SCRIPT = """
-import sys
+import signal, sys
+signal.signal(signal.SIGINT, signal.default_int_handler)  # as in a terminal, even if the test runner ignores it
 sys.path.insert(0, {tests!r})
 from test_sweep import fake_runner
 from navstack.sweep import SweepConfig, build_specs, run_sweep

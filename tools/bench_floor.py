@@ -50,7 +50,7 @@ from navstack.jpl import jpl_serpentine
 from navstack.sensing import SensorConfig, ray_directions, ray_start_distances
 from navstack.sim._bullet import direct_client, pybullet
 from navstack.sim.body import RobotBody
-from navstack.sim.scene import CLEARANCE_STAGES, Scene
+from navstack.sim.scene import CLEARANCE_STAGES, Scene, SceneOptions
 from navstack.sim.servo import JointServo
 from navstack.trial import TrialConfig, run_trial
 from navstack.world import World, load_world, world_from_dict
@@ -107,9 +107,9 @@ def floor_ms_per_step(rep: Replay, held: bool = False) -> tuple[float, np.ndarra
         cid = client._client
         T0 = world.robot.base.transform()
         body = RobotBody.build(client, chain, T0, serpentine_radius=world.robot.serpentine_radius,
-                               arm_radius=world.robot.arm_radius)
+                               arm_radius=world.robot.arm_radius, visuals=False)  # as a trial's (no pictures)
         body.reset(chain.check(world.robot.q0))
-        scene = Scene.build(client, world)
+        scene = Scene.build(client, world, SceneOptions(visuals=False))
         robot = body.body_id
         n_links = p.getNumJoints(robot, physicsClientId=cid)
         for b in scene.body_ids:

@@ -93,10 +93,12 @@ class RobotBody:
         serpentine_radius: float = 0.025,
         arm_radius: float = 0.06,
         first_serpentine_frame: int = 9,
+        visuals: bool = True,
     ) -> RobotBody:
         """Create the multibody in ``client`` (a ``BulletClient``).
 
-        ``base_transform`` (4x4) places DH frame 0 in the world [m].
+        ``base_transform`` (4x4) places DH frame 0 in the world [m].  ``visuals``: give the links (and the
+        lathe bed's rail) visual shapes, which only pictures use; the collision shapes are the same either way.
         """
         T0 = np.eye(4) if base_transform is None else np.asarray(base_transform, dtype=np.float64)
         rows = len(chain.alpha)
@@ -136,7 +138,7 @@ class RobotBody:
                     )
                 )
                 vis_ids.append(
-                    client.createVisualShape(
+                    -1 if not visuals else client.createVisualShape(
                         pybullet.GEOM_CAPSULE,
                         radius=radius,
                         length=length,
@@ -150,7 +152,7 @@ class RobotBody:
                 vis_ids.append(-1)
         # the lathe bed: a rail along z0 over the prismatic joint's travel (visual only)
         travel = (float(chain.lower[0]), float(chain.upper[0])) if chain.prismatic[0] else (-0.1, 0.1)
-        base_vis = client.createVisualShape(
+        base_vis = -1 if not visuals else client.createVisualShape(
             pybullet.GEOM_BOX,
             halfExtents=[0.05, 0.12, 0.5 * (travel[1] - travel[0]) + 0.1],
             visualFramePosition=[-0.1, 0.0, 0.5 * (travel[0] + travel[1])],
