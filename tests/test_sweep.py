@@ -730,6 +730,7 @@ def test_an_interrupt_while_a_line_is_recorded_comes_after_its_count():
     other = threading.Thread(target=stop.wait, daemon=True)
     other.start()
     done = []
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)  # as in a terminal, even if the runner ignores it
     try:
         with pytest.raises(KeyboardInterrupt):
             with _signals_deferred():
@@ -739,4 +740,5 @@ def test_an_interrupt_while_a_line_is_recorded_comes_after_its_count():
                 done.append("count")
     finally:
         stop.set()
+        signal.signal(signal.SIGINT, old)
     assert done == ["line", "count"]

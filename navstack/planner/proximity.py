@@ -69,8 +69,6 @@ def distance_below(px, py, pz, r, occ, P, alive, head, nxt, origin, bucket, dims
     return nearest_distance(px, py, pz, r, P, alive, head, nxt, origin, bucket, dims)
 
 
-
-
 @numba.njit(cache=True)
 def samples_clear(ax, ay, az, bx, by, bz, fracs, r, work, occ, P, alive, head, nxt, origin, bucket,
                   dims):  # pragma: no cover - jitted
