@@ -106,7 +106,6 @@ def test_distances_below_is_distance_below_bit_for_bit(seed):
     rng = np.random.default_rng(300 + seed)
     live = smap.points
     bucket = smap.config.bucket
-    cells = np.empty((8, 3), dtype=np.int64)
     out = np.empty(8)
     below = 0
     for r in (0.01, 0.035, 0.075, REACH * bucket, REACH * bucket + 1e-3, 0.1):
@@ -115,7 +114,7 @@ def test_distances_below_is_distance_below_bit_for_bit(seed):
             d = rng.normal(size=3)
             n = int(rng.integers(1, 9))
             xs = p + np.outer(np.arange(n), 0.01 * d / np.linalg.norm(d))  # a primitive's samples, 1 cm apart
-            distances_below(xs, n, r, cells, out, occ, *arrays)
+            distances_below(xs, n, r, out, occ, *arrays)
             want = [distance_below(*x, r, occ, *arrays) for x in xs]
             assert out[:n].tolist() == want, (xs, r)
             below += sum(w < r for w in want)

@@ -130,10 +130,12 @@ def samples_clear(ax, ay, az, bx, by, bz, fracs, r, work, occ, P, alive, head, n
 
 
 @numba.njit(cache=True)
-def distances_below(xs, n, r, cells, out, occ, P, alive, head, nxt, origin, bucket, dims):  # pragma: no cover
+def distances_below(xs, n, r, out, occ, P, alive, head, nxt, origin, bucket, dims):  # pragma: no cover
     """``out[t] = distance_below(xs[t], r)`` for ``t < n``, bit for bit, from one scan of the buckets around
     all ``n`` points (each visited once; a point's own scan covers the buckets within ``ceil(r / bucket)`` of
-    its own, and every point outside them is farther than ``r``).  ``cells``: (>= n, 3) int scratch."""
+    its own, and every point outside them is farther than ``r``).  :func:`samples_clear` is the same pass for a
+    yes-or-no answer: it stops at the first point within ``r`` and skips buckets beyond every sample's own
+    neighbourhood, which pays on a 0.13 m chord but not on a primitive's samples 1 cm apart."""
     m = int(math.ceil(r / bucket))
     r2 = r * r
     near = 0
@@ -143,7 +145,6 @@ def distances_below(xs, n, r, cells, out, occ, P, alive, head, nxt, origin, buck
         i = _cell(xs[t, 0], origin, bucket, dims, 0)
         j = _cell(xs[t, 1], origin, bucket, dims, 1)
         k = _cell(xs[t, 2], origin, bucket, dims, 2)
-        cells[t, 0], cells[t, 1], cells[t, 2] = i, j, k
         lo0, lo1, lo2 = min(lo0, i), min(lo1, j), min(lo2, k)
         hi0, hi1, hi2 = max(hi0, i), max(hi1, j), max(hi2, k)
         out[t] = r2

@@ -459,7 +459,6 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
     line = np.empty((512, 3))
     chain_pts = np.empty((24, 3))  # the chain's points, then scratch
     samp = np.empty((n_samp, 3))
-    samp_cells = np.empty((n_samp, 3), dtype=np.int64)
     samp_d = np.empty(n_samp)
     c_reach = cost_reach(rep)
     n_goals = goals.shape[0]
@@ -526,8 +525,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
             for j in range(1, n_samp + 1):  # the samples, and their distances to the map in one scan
                 samp[j - 1, 0], samp[j - 1, 1], samp[j - 1, 2], _, _, _ = _arc(px, py, pz, hx, hy, hz, nx, ny, nz,
                                                                                kap, j * ds)
-            distances_below(samp, n_samp, c_reach, samp_cells, samp_d, occ, P, alive, head, nxt, origin, bucket,
-                            bdims)
+            distances_below(samp, n_samp, c_reach, samp_d, occ, P, alive, head, nxt, origin, bucket, bdims)
             for j in range(1, n_samp + 1):
                 s = j * ds
                 qx, qy, qz = samp[j - 1, 0], samp[j - 1, 1], samp[j - 1, 2]
