@@ -357,3 +357,38 @@ def test_unseen_space_near_surfaces_costs_more_in_the_navigation_function():
     nav_seen = navigation_function(smap, GOAL_BEHIND, REACH, NAV_LO, NAV_HI, REP)
     start = np.zeros(3)
     assert nav_unseen.lookup(start) > nav_seen.lookup(start) + 0.1
+
+
+# ---------------------------------------------------------------------------- the wavefront runs on demand
+def _settled(nav) -> int:
+    return int((nav.wave[4] == -2).sum())
+
+
+@pytest.mark.parametrize("seen", [True, False])
+def test_values_asked_one_by_one_are_the_finished_wavefronts_bit_for_bit(seen):
+    """The wavefront settles cells only as far as each question needs: every value it gives, asked in a
+    random order (blocked cells and cells behind the wall too), equals the finished grid's bit for bit; a
+    question near the goal settles a small part of the grid; finishing it gives the finished grid."""
+    smap = _wall_map(_wall(hole=(0.25, 0.0, 0.065)))
+    if seen:
+        _all_seen(smap)
+    done = navigation_function(smap, GOAL_BEHIND, REACH, NAV_LO, NAV_HI, REP).values
+    nav = navigation_function(smap, GOAL_BEHIND, REACH, NAV_LO, NAV_HI, REP)
+    assert _settled(nav) == 0
+    assert nav.lookup(GOAL_BEHIND + [0.05, 0.0, 0.0]) == done[tuple(np.floor((GOAL_BEHIND + [0.05, 0, 0] - nav.origin)
+                                                                           / nav.cell).astype(int))]
+    assert 0 < _settled(nav) < 0.02 * done.size
+    rng = np.random.default_rng(11)
+    cells = rng.integers(0, done.shape, size=(400, 3))
+    order = np.argsort(np.linalg.norm(nav.origin + (cells + 0.5) * nav.cell - GOAL_BEHIND, axis=1))
+    cells = np.vstack([cells[order[:200]], rng.permutation(cells[order[200:]])])  # near ones first, then any
+    counts = []
+    for c in cells:
+        p = nav.origin + (c + rng.uniform(0.05, 0.95, 3)) * nav.cell
+        v = nav.lookup(p)
+        assert v == done[tuple(c)], (c, v, done[tuple(c)])
+        counts.append(_settled(nav))
+    assert np.all(np.diff(counts) >= 0)
+    assert np.isinf(done[tuple(cells.T)]).any() and np.isfinite(done[tuple(cells.T)]).sum() > 300
+    np.testing.assert_array_equal(nav.values, done)
+    assert _settled(nav) == np.isfinite(done).sum()
