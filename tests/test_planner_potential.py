@@ -392,3 +392,29 @@ def test_values_asked_one_by_one_are_the_finished_wavefronts_bit_for_bit(seen):
     assert np.isinf(done[tuple(cells.T)]).any() and np.isfinite(done[tuple(cells.T)]).sum() > 300
     np.testing.assert_array_equal(nav.values, done)
     assert _settled(nav) == np.isfinite(done).sum()
+
+
+@pytest.mark.parametrize("radius", [0.0, 0.007, 0.018, 0.02, 0.065, 0.1])
+def test_rasterize_marks_exactly_the_cells_whose_centre_is_within_reach(radius):
+    """Against a brute force over every cell and point, with the kernel's own arithmetic (so the same cells,
+    ties included): points inside, near and beyond the grid's faces, some of them dead."""
+    from navstack.planner.potential import _rasterize
+
+    rng = np.random.default_rng(int(radius * 1e4))
+    cell, dims, origin = 0.02, np.array([13, 9, 11]), np.array([-0.1, 0.2, -0.05])
+    size = dims * cell
+    P = origin + rng.uniform(-0.15, 1.15, size=(150, 3)) * size
+    P[:40] = origin + np.round(rng.uniform(0, 1, size=(40, 3)) * dims) * cell  # on cell faces
+    alive = rng.uniform(size=len(P)) < 0.9
+    out = np.zeros(tuple(dims))
+    _rasterize(P, alive, len(P), origin, cell, dims, radius, out, 7.0)
+    idx = np.indices(dims).reshape(3, -1).T
+    c = [origin[a] + (idx[:, a] + 0.5) * cell for a in range(3)]
+    ref = np.zeros(len(idx), dtype=bool)
+    for q in np.flatnonzero(alive):
+        x, y, z = c[0] - P[q, 0], c[1] - P[q, 1], c[2] - P[q, 2]
+        ref |= x * x + y * y + z * z <= radius * radius
+    np.testing.assert_array_equal(out.reshape(-1) == 7.0, ref)
+    assert set(np.unique(out)) <= {0.0, 7.0}
+    if radius >= 0.018:
+        assert 0 < ref.sum() and (radius > 0.05 or ref.sum() < ref.size)

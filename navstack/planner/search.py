@@ -194,7 +194,7 @@ class Plan:
     def state(self, s: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Position and unit tangent at arc length ``s`` (clamped), linearly interpolated."""
         s = min(max(float(s), 0.0), self.length)
-        i = int(np.clip(np.searchsorted(self.arc, s, side="right") - 1, 0, max(len(self.arc) - 2, 0)))
+        i = min(max(int(np.searchsorted(self.arc, s, side="right")) - 1, 0), max(len(self.arc) - 2, 0))
         if len(self.arc) == 1:
             return self.points[0].copy(), self.tangents[0].copy()
         ds = self.arc[i + 1] - self.arc[i]
