@@ -132,10 +132,12 @@ class NavigationFunction:
 
     The wavefront runs **on demand**: a cell's value is final once Dijkstra has settled it, and
     Dijkstra settles cells in order of value, so :meth:`lookup` (and the search, through
-    :attr:`wave`) run it on only until the cell asked for is settled; a search from a start at
-    cost-to-go ``V`` rarely needs cells much above ``V``, about a third of the grid.  The values
-    are those of the whole wavefront, bit for bit, whatever the order of the questions (the same
-    pops in the same order, only paused).  :attr:`values` finishes it.
+    :attr:`wave`) run it on only until the cell asked for is settled.  A search from a start at
+    cost-to-go ``V`` rarely needs cells much above ``V``: the trials settle 8 % of their grids' cells
+    (24 % on a slot rack; the grid spans the start and the goal with a margin all round, and is
+    recomputed as the tip closes in).  The values are those of the whole wavefront, bit for bit,
+    whatever the order of the questions (the same pops in the same order, only paused).
+    :attr:`values` finishes it.
 
     Args:
         origin: (3,) the grid's lower corner [m]; cell: its cell size [m].
