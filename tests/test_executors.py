@@ -197,3 +197,71 @@ def test_provenance_keys_and_version_key():
     assert tuple(p) == provenance.PROVENANCE_KEYS and p["backend"] == "ray"
     assert provenance.version_key(p) == tuple(p[k] for k in provenance.VERSION_KEYS)
     assert provenance.version_key(None) is None
+
+
+# ---------------------------------------------------------------------------- generated worlds kept by a worker
+def _text_runner(world, *, controller, planner, seed, out_dir=None):
+    """A runner that reports the world text it was given (in-process tests only)."""
+    return {"world": Path(world).read_text(), "seed": seed, "controller": controller, "planner": planner,
+            "success": True, "reason": "reached", "goals_reached": 1, "sim_time": 0.0, "steps": 0,
+            "wall_time": 0.0, "metrics": {}}
+
+
+def test_a_worker_generates_a_world_once_for_all_its_trials(monkeypatch):
+    """navstack's own generator: a world's second trial (another controller) gets the kept text, not a new
+    generation; another world is generated; after WORLDS_KEPT other worlds the first is generated again; a
+    user's generator is called for every trial (its worlds are not assumed reproducible)."""
+    calls = []
+
+    def counting(family, seed, difficulty, **kwargs):
+        calls.append((family, seed, difficulty))
+        return fake_generator(family, seed, difficulty)
+
+    monkeypatch.setattr("navstack.generate.generate_world", counting)
+    monkeypatch.setattr(executors, "_GENERATED", executors.OrderedDict())
+    specs = build_specs(SweepConfig(families=("truss",), count=executors.WORLDS_KEPT + 2, seed=4,
+                                    controllers=("slither", "tip-only")))
+    replies = [executors.run_job(TrialJob(spec=s, runner=_text_runner)) for s in specs[:4]]
+    assert all(r["error"] is None for r in replies), replies
+    assert len(calls) == 2  # two worlds, two trials each
+    for a, b in (replies[0:2], replies[2:4]):
+        assert a["world_json"] == b["world_json"] == a["result"]["world"] == b["result"]["world"]
+        assert json.loads(a["world_json"])["extra"]["world_seed"] == specs[replies.index(a)].world_seed
+    assert replies[0]["world_json"] != replies[2]["world_json"]
+    for s in specs[4::2]:  # the first trial of each of the other worlds: the first two worlds drop out
+        executors.run_job(TrialJob(spec=s, runner=_text_runner))
+    assert len(calls) == executors.WORLDS_KEPT + 2
+    again = executors.run_job(TrialJob(spec=specs[1], runner=_text_runner))
+    assert len(calls) == executors.WORLDS_KEPT + 3 and again["world_json"] == replies[1]["world_json"]
+    for _ in range(2):
+        executors.run_job(TrialJob(spec=specs[0], runner=_text_runner, generator=fake_generator))
+    assert len(calls) == executors.WORLDS_KEPT + 3  # the user's generator was called instead, twice
+
+
+def test_an_idle_worker_takes_its_own_worlds_trial_then_one_nobody_is_generating():
+    pick = executors.pick_for_worker
+    a, b, c = ("truss", 1, 0.5, False), ("truss", 2, 0.5, False), ("pipe-rack", 3, 0.5, False)
+    kept = executors.deque([c], maxlen=executors.WORLDS_KEPT)
+    assert pick([a, b, None], executors.deque(), set()) == 0  # nothing kept, nothing busy: in order
+    assert pick([a, b, c], kept, {a}) == 2  # the world it keeps, first
+    assert pick([a, a, b], executors.deque(), {a}) == 2  # a is being generated elsewhere: b
+    assert pick([a, None, b], executors.deque(), {a}) == 1  # a world from a file needs no generating
+    assert pick([a, a], executors.deque(), {a}) == 0  # nothing else to do: generate it too, rather than idle
+    assert pick([None], kept, {c}) == 0
+
+
+@pytest.mark.slow
+def test_a_sweep_of_two_controllers_on_two_workers_gives_the_one_worker_lines(tmp_path, monkeypatch):
+    """The real generator and runner's results do not depend on which worker runs which trial or on the
+    kept worlds: a sweep on two workers gives the lines of a sweep on one, and the same world files."""
+    monkeypatch.setattr("navstack.sweep._known_families", lambda: ("truss", "pipe-rack", "sphere-field"))
+    cfg = SweepConfig(families=("pipe-rack", "sphere-field"), count=2, seed=12,
+                      controllers=("slither", "tip-only"))
+    specs = build_specs(cfg)
+    outs = {}
+    for jobs in (1, 2):
+        run_sweep(specs, tmp_path / str(jobs), jobs=jobs, runner=fake_runner, progress=False)
+        outs[jobs] = lines_of(tmp_path / str(jobs) / "results.jsonl")
+    assert comparable(outs[1]) == comparable(outs[2])
+    for s in specs:
+        assert (tmp_path / "1" / s.world_file).read_bytes() == (tmp_path / "2" / s.world_file).read_bytes()

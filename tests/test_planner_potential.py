@@ -357,3 +357,64 @@ def test_unseen_space_near_surfaces_costs_more_in_the_navigation_function():
     nav_seen = navigation_function(smap, GOAL_BEHIND, REACH, NAV_LO, NAV_HI, REP)
     start = np.zeros(3)
     assert nav_unseen.lookup(start) > nav_seen.lookup(start) + 0.1
+
+
+# ---------------------------------------------------------------------------- the wavefront runs on demand
+def _settled(nav) -> int:
+    return int((nav.wave[4] == -2).sum())
+
+
+@pytest.mark.parametrize("seen", [True, False])
+def test_values_asked_one_by_one_are_the_finished_wavefronts_bit_for_bit(seen):
+    """The wavefront settles cells only as far as each question needs: every value it gives, asked in a
+    random order (blocked cells and cells behind the wall too), equals the finished grid's bit for bit; a
+    question near the goal settles a small part of the grid; finishing it gives the finished grid."""
+    smap = _wall_map(_wall(hole=(0.25, 0.0, 0.065)))
+    if seen:
+        _all_seen(smap)
+    done = navigation_function(smap, GOAL_BEHIND, REACH, NAV_LO, NAV_HI, REP).values
+    nav = navigation_function(smap, GOAL_BEHIND, REACH, NAV_LO, NAV_HI, REP)
+    assert _settled(nav) == 0
+    assert nav.lookup(GOAL_BEHIND + [0.05, 0.0, 0.0]) == done[tuple(np.floor((GOAL_BEHIND + [0.05, 0, 0] - nav.origin)
+                                                                           / nav.cell).astype(int))]
+    assert 0 < _settled(nav) < 0.02 * done.size
+    rng = np.random.default_rng(11)
+    cells = rng.integers(0, done.shape, size=(400, 3))
+    order = np.argsort(np.linalg.norm(nav.origin + (cells + 0.5) * nav.cell - GOAL_BEHIND, axis=1))
+    cells = np.vstack([cells[order[:200]], rng.permutation(cells[order[200:]])])  # near ones first, then any
+    counts = []
+    for c in cells:
+        p = nav.origin + (c + rng.uniform(0.05, 0.95, 3)) * nav.cell
+        v = nav.lookup(p)
+        assert v == done[tuple(c)], (c, v, done[tuple(c)])
+        counts.append(_settled(nav))
+    assert np.all(np.diff(counts) >= 0)
+    assert np.isinf(done[tuple(cells.T)]).any() and np.isfinite(done[tuple(cells.T)]).sum() > 300
+    np.testing.assert_array_equal(nav.values, done)
+    assert _settled(nav) == np.isfinite(done).sum()
+
+
+@pytest.mark.parametrize("radius", [0.0, 0.007, 0.018, 0.02, 0.065, 0.1])
+def test_rasterize_marks_exactly_the_cells_whose_centre_is_within_reach(radius):
+    """Against a brute force over every cell and point, with the kernel's own arithmetic (so the same cells,
+    ties included): points inside, near and beyond the grid's faces, some of them dead."""
+    from navstack.planner.potential import _rasterize
+
+    rng = np.random.default_rng(int(radius * 1e4))
+    cell, dims, origin = 0.02, np.array([13, 9, 11]), np.array([-0.1, 0.2, -0.05])
+    size = dims * cell
+    P = origin + rng.uniform(-0.15, 1.15, size=(150, 3)) * size
+    P[:40] = origin + np.round(rng.uniform(0, 1, size=(40, 3)) * dims) * cell  # on cell faces
+    alive = rng.uniform(size=len(P)) < 0.9
+    out = np.zeros(tuple(dims))
+    _rasterize(P, alive, len(P), origin, cell, dims, radius, out, 7.0)
+    idx = np.indices(dims).reshape(3, -1).T
+    c = [origin[a] + (idx[:, a] + 0.5) * cell for a in range(3)]
+    ref = np.zeros(len(idx), dtype=bool)
+    for q in np.flatnonzero(alive):
+        x, y, z = c[0] - P[q, 0], c[1] - P[q, 1], c[2] - P[q, 2]
+        ref |= x * x + y * y + z * z <= radius * radius
+    np.testing.assert_array_equal(out.reshape(-1) == 7.0, ref)
+    assert set(np.unique(out)) <= {0.0, 7.0}
+    if radius >= 0.018:
+        assert 0 < ref.sum() and (radius > 0.05 or ref.sum() < ref.size)

@@ -543,3 +543,28 @@ def test_a_bad_arm_shape_is_refused_naming_the_field(kwargs, match):
     with pytest.raises(ValueError, match=match):
         ArmShape(**{**good, **kwargs})
     assert ArmShape(**good).points.flags.c_contiguous
+
+
+@pytest.mark.parametrize("seen", [True, False])
+@pytest.mark.parametrize("slot_y", [0.0, 0.15])
+def test_the_search_reads_the_navigation_function_on_demand_with_the_same_plan(slot_y, seen):
+    """The search asks the navigation function for the cells it reaches only: the plan is the same, bit for bit,
+    as with the wavefront finished first, and most of the grid is never settled."""
+    from navstack.planner.potential import navigation_function
+    from navstack.planner.search import navigation_region
+
+    smap = _map(_wall(slot_y), seen=seen)
+    goal = np.array([1.0, 0.0, 0.0])
+    lo, hi = navigation_region(np.zeros(3), goal, CFG)
+    lazy = navigation_function(smap, goal, CFG.goal_fraction * 0.02, lo, hi, REP)
+    finished = navigation_function(smap, goal, CFG.goal_fraction * 0.02, lo, hi, REP)
+    values = finished.values
+    a, b = _plan(smap, goal, nav=lazy), _plan(smap, goal, nav=finished)
+    assert a.status == b.status == REACHED
+    for name in ("points", "tangents", "arc", "goal_index"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    assert a.cost == b.cost and a.expansions == b.expansions
+    settled = int((lazy.wave[4] == -2).sum())
+    print(f"\nslot at y = {slot_y}: {settled} of {np.isfinite(values).sum()} reachable cells settled")
+    assert 0 < settled < 0.9 * np.isfinite(values).sum()
+    np.testing.assert_array_equal(lazy.values, values)

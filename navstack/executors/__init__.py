@@ -42,9 +42,9 @@ import tempfile
 import threading
 import time
 import traceback
-from collections import deque
+from collections import OrderedDict, deque
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -61,6 +61,8 @@ BACKENDS = ("local", "ray")
 MAX_ATTEMPTS = 3
 """How often a trial is submitted again after its worker pool broke under it (not after its own crash)."""
 STARTUP_TIMEOUT = 300.0
+WORLDS_KEPT = 8
+"""Generated worlds a worker keeps (their text), for the other trials of the same world (controllers, planners)."""
 """Seconds a new worker may take to start (import the runner) while a trial waits for it (s)."""
 
 
@@ -177,25 +179,50 @@ def _result_to_dict(result: Any) -> dict[str, Any]:
     raise TypeError(f"the trial runner returned {type(result).__name__}, expected a dict or a TrialResult")
 
 
+def world_key(job: TrialJob) -> tuple | None:
+    """What identifies the world of ``job`` when navstack's own generator makes it (``None`` otherwise)."""
+    spec = job.spec
+    if not spec.generated or job.generator is not None:
+        return None
+    return (spec.family, spec.world_seed, spec.difficulty, spec.retract)
+
+
+_GENERATED: OrderedDict[tuple, str] = OrderedDict()
+"""The last :data:`WORLDS_KEPT` worlds this worker generated, by :func:`world_key`: navstack's generator gives
+the same text for the same key (tests/test_generate_stable.py), so another trial of the world (another
+controller or planner) reads the text instead of generating it again."""
+
+
 def _world_path(job: TrialJob, tmp: Path, reply: Reply) -> Path:
     """The world file the runner is given: the generated world, the user's own file when this process sees it
     unchanged (so relative mesh paths work), else a copy of the shipped text in ``tmp``."""
     spec = job.spec
     name = Path(spec.world_file).name
     if spec.generated:
-        generator = job.generator
-        if generator is None:
-            from navstack.generate import generate_world as generator
-        kwargs = {"retract": True} if spec.retract else {}
-        world = generator(spec.family, seed=spec.world_seed, difficulty=spec.difficulty, **kwargs)
         path = tmp / name
-        if isinstance(world, dict):
-            path.write_text(json.dumps(world, indent=2) + "\n", encoding="utf-8")
+        key = world_key(job)
+        text = _GENERATED.get(key) if key is not None else None
+        if text is not None:
+            _GENERATED.move_to_end(key)
+            path.write_text(text, encoding="utf-8")
         else:
-            from navstack.world import save_world
+            generator = job.generator
+            if generator is None:
+                from navstack.generate import generate_world as generator
+            kwargs = {"retract": True} if spec.retract else {}
+            world = generator(spec.family, seed=spec.world_seed, difficulty=spec.difficulty, **kwargs)
+            if isinstance(world, dict):
+                path.write_text(json.dumps(world, indent=2) + "\n", encoding="utf-8")
+            else:
+                from navstack.world import save_world
 
-            save_world(world, path)
-        reply["world_json"] = path.read_text(encoding="utf-8")
+                save_world(world, path)
+            text = path.read_text(encoding="utf-8")
+            if key is not None:
+                _GENERATED[key] = text
+                while len(_GENERATED) > WORLDS_KEPT:
+                    _GENERATED.popitem(last=False)
+        reply["world_json"] = text
         return path
     original = Path(spec.world_file)
     text = job.world_text if job.world_text is not None else ""
@@ -278,6 +305,10 @@ class _Lane:
     busy: bool = False
     born: float | None = None
     """When its worker was asked to start (its first trial; pebble starts the process then)."""
+    worlds: deque = field(default_factory=lambda: deque(maxlen=WORLDS_KEPT))
+    """The generated worlds (:func:`world_key`) its worker last ran: it keeps their text."""
+    running: tuple | None = None
+    """The generated world of the trial it runs now."""
 
 
 @dataclass
@@ -346,7 +377,7 @@ class WorkerPool:
                 if self._closed or not self._queue:
                     break
                 if not lane.busy:
-                    task = self._queue.popleft()
+                    task = self._take_for(lane)
                     lane.busy = True
                     if lane.born is None:
                         lane.born = time.monotonic()
@@ -354,6 +385,19 @@ class WorkerPool:
         for lane, task, pf in started:
             t0 = time.monotonic()
             pf.add_done_callback(lambda f, lane=lane, task=task, t0=t0: self._settle(f, lane, task, t0))
+
+    def _take_for(self, lane: _Lane) -> _Task:
+        """Take from the queue the trial for idle ``lane`` (the lock held): see :func:`pick_for_worker`."""
+        busy = {other.running for other in self._lanes if other.busy and other.running is not None}
+        i = pick_for_worker([world_key(t.job) for t in self._queue], lane.worlds, busy)
+        task = self._queue[i]
+        del self._queue[i]
+        key = lane.running = world_key(task.job)
+        if key is not None:
+            if key in lane.worlds:
+                lane.worlds.remove(key)
+            lane.worlds.append(key)
+        return task
 
     def _settle(self, f: cf.Future[Reply], lane: _Lane, task: _Task, t0: float) -> None:
         """A lane's trial ended: resolve its future (or requeue it), free or replace the lane, dispatch."""
@@ -401,6 +445,7 @@ class WorkerPool:
             old = lane.pool
             fresh = self._new_lane()
             lane.pool, lane.started, lane.born = fresh.pool, fresh.started, None
+            lane.worlds.clear()  # a new worker keeps nothing
             stopper = threading.Thread(target=_stop_pool, args=(old,), daemon=True)
             self._stoppers.append(stopper)
         stopper.start()
@@ -421,6 +466,20 @@ class WorkerPool:
                 pool.join()
         for t in self._stoppers:
             t.join()
+
+
+def pick_for_worker(queued: list[tuple | None], kept: deque, busy: set[tuple]) -> int:
+    """Which queued trial (index into ``queued``, their worlds' :func:`world_key`) an idle worker takes.
+
+    The first whose world the worker keeps (``kept``); else the first whose world no other worker is
+    generating now (``busy``), so two workers do not make the same world at once; else the first.  The queue
+    holds at most a trial per worker (``LocalExecutor.capacity``), so trials start at most that many places
+    out of their order; results never depend on which worker runs a trial.
+    """
+    for i, key in enumerate(queued):
+        if key is not None and key in kept:
+            return i
+    return next((i for i, key in enumerate(queued) if key is None or key not in busy), 0)
 
 
 def _resolve(out: cf.Future[Reply], reply: Reply | None = None, exc: BaseException | None = None) -> None:

@@ -43,6 +43,7 @@ from navstack.planner.potential import (
     cost_at,
     cost_reach,
     navigation_function,
+    wave_value,
 )
 from navstack.planner.proximity import distance_below, distances_below, occupied_near, samples_clear
 
@@ -193,7 +194,7 @@ class Plan:
     def state(self, s: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Position and unit tangent at arc length ``s`` (clamped), linearly interpolated."""
         s = min(max(float(s), 0.0), self.length)
-        i = int(np.clip(np.searchsorted(self.arc, s, side="right") - 1, 0, max(len(self.arc) - 2, 0)))
+        i = min(max(int(np.searchsorted(self.arc, s, side="right")) - 1, 0), max(len(self.arc) - 2, 0))
         if len(self.arc) == 1:
             return self.points[0].copy(), self.tangents[0].copy()
         ds = self.arc[i + 1] - self.arc[i]
@@ -260,7 +261,8 @@ def _heuristic(px, py, pz, hx, hy, hz, k, k_nav, goals, reach, rest, nav, nav_or
     ``k_nav`` (the straight distance for later goals) and the turn-then-straight length (curvature,
     no obstacles), plus the distances between the remaining goals.  ``k_nav = -1``: a lower bound on
     the length to go (no navigation function, no estimate inside the turning circle); ``-2``: the same
-    without the navigation function but with that estimate."""
+    without the navigation function but with that estimate.  ``nav``: the navigation function's
+    :attr:`~navstack.planner.potential.NavigationFunction.wave`, run on as far as each cell asked for needs."""
     if k >= goals.shape[0]:
         return 0.0
     gx, gy, gz = goals[k, 0], goals[k, 1], goals[k, 2]
@@ -270,8 +272,9 @@ def _heuristic(px, py, pz, hx, hy, hz, k, k_nav, goals, reach, rest, nav, nav_or
         i = int(math.floor((px - nav_origin[0]) / nav_cell))
         j = int(math.floor((py - nav_origin[1]) / nav_cell))
         m = int(math.floor((pz - nav_origin[2]) / nav_cell))
-        if 0 <= i < nav.shape[0] and 0 <= j < nav.shape[1] and 0 <= m < nav.shape[2]:
-            v = nav[i, j, m] - 0.87 * nav_cell
+        shape = nav[0].shape
+        if 0 <= i < shape[0] and 0 <= j < shape[1] and 0 <= m < shape[2]:
+            v = wave_value(nav, i, j, m) - 0.87 * nav_cell
             if v > d:
                 d = v
     c = turn_then_straight(px, py, pz, hx, hy, hz, gx, gy, gz, radius, k_nav == -1) - reach[k]
@@ -715,7 +718,7 @@ def search(smap: SensedMap, start: ArrayLike, heading: ArrayLike, goals: ArrayLi
         lo, hi = navigation_region(p0, G[k0], config)
         nav = navigation_function(smap, G[k0], float(reach[k0]), lo, hi, repulsion)
     if nav is None:
-        nav = NavigationFunction(origin=np.zeros(3), cell=1.0, values=np.zeros((1, 1, 1)))
+        nav = NavigationFunction(np.zeros(3), 1.0, np.zeros((1, 1, 1)))
     hist = np.asarray(history, dtype=np.float64).reshape(-1, 3) if history is not None else None
     if hist is None or len(hist) < 2:
         hist = np.array([p0 - 0.5 * h0, p0])
@@ -735,7 +738,7 @@ def search(smap: SensedMap, start: ArrayLike, heading: ArrayLike, goals: ArrayLi
     box_lo = smap.origin
     box_hi = smap.origin + smap.free_dims * fcell - 1e-9
     status, last, expansions, _ = _search_kernel(
-        p0, h0, k0, G, reach, rest, kap, dc, ds, cfg, rep, hist, nav.values, nav.origin, nav.cell, arm_pts, flange,
+        p0, h0, k0, G, reach, rest, kap, dc, ds, cfg, rep, hist, nav.wave, nav.origin, nav.cell, arm_pts, flange,
         occupied_near(smap.head), *smap.arrays(), free, fcell, fdims,
         box_lo, box_hi, buf.P, buf.H, buf.K, buf.G, buf.PAR, buf.KAP, buf.DIR, buf.END, buf.L)
     if status == PARTIAL and last == 0:
