@@ -61,9 +61,9 @@ BACKENDS = ("local", "ray")
 MAX_ATTEMPTS = 3
 """How often a trial is submitted again after its worker pool broke under it (not after its own crash)."""
 STARTUP_TIMEOUT = 300.0
+"""Seconds a new worker may take to start (import the runner) while a trial waits for it (s)."""
 WORLDS_KEPT = 8
 """Generated worlds a worker keeps (their text), for the other trials of the same world (controllers, planners)."""
-"""Seconds a new worker may take to start (import the runner) while a trial waits for it (s)."""
 
 
 class SweepWorkerError(RuntimeError):
@@ -194,8 +194,9 @@ controller or planner) reads the text instead of generating it again."""
 
 
 def _world_path(job: TrialJob, tmp: Path, reply: Reply) -> Path:
-    """The world file the runner is given: the generated world, the user's own file when this process sees it
-    unchanged (so relative mesh paths work), else a copy of the shipped text in ``tmp``."""
+    """The world file the runner is given: the generated world (made here, or the text this worker kept from
+    another trial of the world, :data:`_GENERATED`), the user's own file when this process sees it unchanged (so
+    relative mesh paths work), else a copy of the shipped text in ``tmp``."""
     spec = job.spec
     name = Path(spec.world_file).name
     if spec.generated:
