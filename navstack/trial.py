@@ -332,21 +332,10 @@ def check_start(world) -> None:
     (``obstacles[3]``).  Such a trial would count a contact from its first step; refusing it makes the
     world's mistake bad input.  A robot part inside a closed *mesh* is not seen (meshes are surfaces).
     """
-    from navstack.sim._bullet import direct_client
-    from navstack.sim.body import RobotBody
-    from navstack.sim.scene import Scene, SceneOptions
+    from navstack.sim.probe import start_scene
 
-    client = direct_client()
-    try:
-        body = RobotBody.build(client, jpl_serpentine(), world.robot.base.transform(),
-                               serpentine_radius=world.robot.serpentine_radius, arm_radius=world.robot.arm_radius,
-                               visuals=False)
-        body.reset(world.robot.q0)
-        scene = Scene.build(client, world, SceneOptions(visuals=False))
-        client.performCollisionDetection()
+    with start_scene(world) as (body, scene):
         hits = scene.touching(body.body_id)
-    finally:
-        client.disconnect()
     if hits:
         i, d = hits[0]
         how = "touches" if d > -1e-6 else f"penetrates {-d:.3g} m into"

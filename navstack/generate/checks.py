@@ -234,21 +234,10 @@ def path_samples(robot: RobotStart, via: FloatArray, cfg: CheckConfig) -> Sample
 
 def start_clearance(world: World, max_distance: float = 0.5) -> float:
     """PyBullet clearance [m] of the robot at ``q0`` to the obstacles (``Scene.clearance``)."""
-    from navstack.sim._bullet import direct_client
-    from navstack.sim.body import RobotBody
-    from navstack.sim.scene import Scene, SceneOptions
+    from navstack.sim.probe import start_scene
 
-    client = direct_client()
-    try:
-        body = RobotBody.build(client, jpl_serpentine(), world.robot.base.transform(),
-                               serpentine_radius=world.robot.serpentine_radius,
-                               arm_radius=world.robot.arm_radius, visuals=False)
-        body.reset(world.robot.q0)
-        scene = Scene.build(client, world, SceneOptions(visuals=False))
-        client.performCollisionDetection()
+    with start_scene(world) as (body, scene):
         return float(scene.clearance(body.body_id, max_distance))
-    finally:
-        client.disconnect()
 
 
 def run_checks(world: World, via: FloatArray, structure: int, cfg: CheckConfig, robot: RobotStart,

@@ -290,7 +290,8 @@ def _wave_seed(wave, goal, reach, origin, cell):  # pragma: no cover - jitted
 @numba.njit(cache=True)
 def _wave_settle(wave, target):  # pragma: no cover - jitted
     """Run the wavefront on until cell ``target`` (flat index) is settled or nothing is left (``target < 0``:
-    to the end).  An indexed binary heap (each cell at most once, its key lowered in place)."""
+    to the end).  An indexed binary heap (each cell at most once, its key lowered in place); the values are the
+    unique solution of the relaxation equations (positive steps), so they do not depend on the order of ties."""
     cost, flat, keys, cells, pos, heap, steps = wave
     nx, ny, nz = cost.shape
     n = heap[0]
@@ -340,16 +341,6 @@ def wave_value(wave, i, j, k):  # pragma: no cover - jitted
     if wave[5][0] > 0 and wave[4][idx] != -2 and cost[i, j, k] >= 0.0:
         _wave_settle(wave, idx)
     return wave[1][idx]
-
-
-def _wavefront(cost: NDArray[np.float64], goal: NDArray[np.float64], reach: float, origin: NDArray[np.float64],
-               cell: float, out: NDArray[np.float64]) -> None:
-    """Dijkstra over ``cost`` (per-metre weight, < 0 = blocked) from the cells within ``reach`` of ``goal``, to
-    the end, into ``out``.  The values are the unique solution of the relaxation equations (positive steps),
-    so they do not depend on the order of ties."""
-    wave = _wave_state(cost, out, cell)
-    _wave_seed(wave, goal, reach, origin, cell)
-    _wave_settle(wave, -1)
 
 
 def navigation_function(smap, goal: NDArray[np.float64], reach: float, lo: NDArray[np.float64],

@@ -401,22 +401,15 @@ def _compound_body(client: Any, prims: Sequence[_Primitive], rgba: Sequence[floa
 
 
 def _single_body(client: Any, q: _Primitive, rgba: Sequence[float], visuals: bool = True) -> int:
-    vs = -1
-    if q.shape == p.GEOM_CYLINDER:
-        cs = client.createCollisionShape(p.GEOM_CYLINDER, radius=q.radius, height=q.length)
-        if visuals:
-            vs = client.createVisualShape(p.GEOM_CYLINDER, radius=q.radius, length=q.length, rgbaColor=list(rgba))
+    if q.shape == p.GEOM_CYLINDER:  # PyBullet names a cylinder's length "height" for collision, "length" for visual
+        col, vis = {"radius": q.radius, "height": q.length}, {"radius": q.radius, "length": q.length}
     elif q.shape == p.GEOM_BOX:
-        cs = client.createCollisionShape(p.GEOM_BOX, halfExtents=q.half_extents)
-        if visuals:
-            vs = client.createVisualShape(p.GEOM_BOX, halfExtents=q.half_extents, rgbaColor=list(rgba))
+        col = vis = {"halfExtents": q.half_extents}
     else:
-        cs = client.createCollisionShape(p.GEOM_SPHERE, radius=q.radius)
-        if visuals:
-            vs = client.createVisualShape(p.GEOM_SPHERE, radius=q.radius, rgbaColor=list(rgba))
-    _check_id(cs, "a collision shape")
-    if visuals:
-        _check_id(vs, "a visual shape")
+        col = vis = {"radius": q.radius}
+    cs = _check_id(client.createCollisionShape(q.shape, **col), "a collision shape")
+    vs = -1 if not visuals else _check_id(client.createVisualShape(q.shape, rgbaColor=list(rgba), **vis),
+                                          "a visual shape")
     return _check_id(client.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=cs, baseVisualShapeIndex=vs,
                                             basePosition=q.position, baseOrientation=q.orientation),
                      "an obstacle body")
