@@ -236,11 +236,10 @@ def run_trial(
             from navstack.rundir import write_run_world
 
             write_run_world(world, out)  # world.json (meshes copied to out/meshes/): animate and view read it
+        sim = _Simulation(world, controller, planner, int(seed), cfg, visuals=render, built=built)
     except BaseException:
         built[0].disconnect()
         raise
-
-    sim = _Simulation(world, controller, planner, int(seed), cfg, visuals=render, built=built)
     wall0 = time.perf_counter()
     try:
         reason = sim.run()
