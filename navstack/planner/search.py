@@ -33,9 +33,9 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
-from numba.extending import intrinsic
 from numpy.typing import ArrayLike, NDArray
 
+from navstack.fused import fma
 from navstack.planner.map import SensedMap
 from navstack.planner.potential import (
     BLOCKED,
@@ -769,20 +769,11 @@ def _densify(buf: _Buffers, status: int, last: int, expansions: int, p0, h0, k0:
     return Plan(points=P, tangents=tans, arc=arc, goal_index=ks, status=status, cost=cost, expansions=expansions)
 
 
-@intrinsic
-def _fma(typingctx, a, b, c):  # pragma: no cover - compiled
-    """``a * b + c`` rounded once (LLVM's ``fma``)."""
-    def codegen(context, builder, signature, args):
-        return builder.fma(*args)
-    return numba.types.float64(numba.types.float64, numba.types.float64, numba.types.float64), codegen
-
-
 @numba.njit(cache=True)
 def _norm3(x, y, z):  # pragma: no cover - jitted
-    """``numpy.linalg.norm`` of (x, y, z) bit for bit: the square root of BLAS ``ddot``'s sum, which is
-    accumulated with fused multiply-adds in index order (OpenBLAS; checked against ``numpy.linalg.norm``
-    in tests/test_planner_search.py)."""
-    return math.sqrt(_fma(z, z, _fma(y, y, x * x)))
+    """``numpy.linalg.norm`` of (x, y, z) bit for bit: the square root of BLAS ``ddot``'s sum
+    (:mod:`navstack.fused`)."""
+    return math.sqrt(fma(z, z, fma(y, y, x * x)))
 
 
 @numba.njit(cache=True)
