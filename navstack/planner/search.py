@@ -744,8 +744,7 @@ def search(smap: SensedMap, start: ArrayLike, heading: ArrayLike, goals: ArrayLi
         box_lo, box_hi, buf.P, buf.H, buf.K, buf.G, buf.PAR, buf.KAP, buf.DIR, buf.END, buf.L)
     if status == PARTIAL and last == 0:
         status = NO_PATH  # no state closer to the goal than the start: no way on
-    return _densify(buf, int(status), int(last), int(expansions), p0, h0, k0, kap, dc, ds,
-                    config.step, sample)
+    return _densify(buf, int(status), int(last), int(expansions), p0, h0, k0, dc, ds, sample)
 
 
 def navigation_region(p0: NDArray[np.float64], goal: NDArray[np.float64],
@@ -756,7 +755,7 @@ def navigation_region(p0: NDArray[np.float64], goal: NDArray[np.float64],
     return lo, hi
 
 
-def _densify(buf: _Buffers, status: int, last: int, expansions: int, p0, h0, k0: int, kap, dc, ds, step: float,
+def _densify(buf: _Buffers, status: int, last: int, expansions: int, p0, h0, k0: int, dc, ds,
              sample: float) -> Plan:
     """The plan of the node chain ending at ``last``: its arcs sampled every ``sample`` [m] or less."""
     P, tans, ks = _densify_kernel(buf.P, buf.H, buf.K, buf.PAR, buf.DIR, buf.KAP, buf.END, last, p0, h0, k0,
