@@ -51,10 +51,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from filterpy.common import Q_discrete_white_noise
 from numpy.typing import ArrayLike, NDArray
 
+from navstack.fused import fma
 from navstack.sensing import SensorConfig, SensorReading
 
 __all__ = ["EstimatorConfig", "RangeEstimate", "RangeEstimator"]
@@ -141,9 +143,9 @@ class RangeEstimator:
     are stacked in arrays of shape (R, 2, 1) and (R, 2, 2), and one reading runs filterpy's predict and
     update equations (``x = F x + B u``, ``P = F P F' + Q``; ``y = z - H x``, ``S = H P H' + R``,
     ``K = P H' S^-1``, ``x = x + K y``, ``P = (I - K H) P (I - K H)' + K R K'``) on the rays that need
-    them at once, with ``numpy.matmul`` over the stack where filterpy's ``KalmanFilter`` uses ``dot`` on
-    one filter: the same estimates (to 1e-12, tests/test_estimate.py) without 57 Python objects.  The
-    process noise ``Q`` is filterpy's ``Q_discrete_white_noise``.
+    them in one compiled pass over the stack (:func:`_filter_stack`) where filterpy's ``KalmanFilter``
+    uses ``dot`` on one filter: the same estimates (to 1e-12, tests/test_estimate.py) without 57 Python
+    objects.  The process noise ``Q`` is filterpy's ``Q_discrete_white_noise``.
 
     Args:
         sensor: the sensor's :class:`SensorConfig` (its ray count, and its
@@ -249,32 +251,14 @@ class RangeEstimator:
 
         The whole stack is predicted and updated; per ray, masks keep the outcome its case calls for:
         a tracked ray's hit is predicted and updated (or restarted beyond the gate), its dropout predicted
-        (coasting), its valid miss stops the track; an untracked ray's hit starts one."""
+        (coasting), its valid miss stops the track; an untracked ray's hit starts one (:func:`_filter_stack`)."""
         cfg = self.config
-        F, Ft, B, Q = self._model(dt)
-        hit, valid, z = reading.hit, reading.valid, reading.ranges
-        tracked = self.tracking
-        x = F @ self._x + B @ -(reading.directions @ v)[:, None, None]
-        P = F @ self._P @ Ft + Q
-        np.maximum(x[:, 0, 0], 0.0, out=x[:, 0, 0])  # a range is never negative
-        predicted = tracked & (hit | ~valid)
-        innovation = z - x[:, 0, 0]  # NaN for dropouts: computed, never kept
-        gated = tracked & hit & (innovation * innovation > cfg.gate_sigma**2 * (P[:, 0, 0] + self._R[0, 0]))
-        updated = tracked & hit & ~gated
-        H, R = self._H, self._R
-        PHT = P @ H.T
-        K = PHT @ (1.0 / (H @ PHT + R))
-        I_KH = np.eye(2) - K @ H
-        x_post = x + K @ innovation[:, None, None]
-        P_post = I_KH @ P @ I_KH.transpose(0, 2, 1) + K @ R @ K.transpose(0, 2, 1)
-        keep, pred = updated[:, None, None], predicted[:, None, None]
-        self._x = np.where(keep, x_post, np.where(pred, x, self._x))
-        self._P = np.where(keep, P_post, np.where(pred, P, self._P))
-        self._coast = np.where(updated, 0, self._coast + (tracked & ~valid))
-        self.n_resets += int(np.count_nonzero(gated))
-        self.tracking = tracked & ~(valid & ~hit) & (self._coast <= cfg.max_coast)
-        starts = (~tracked & hit) | gated
-        self._start(np.flatnonzero(starts), z[starts])
+        F, _, B, Q = self._model(dt)
+        self.n_resets += _filter_stack(
+            self._x, self._P, self.tracking, self._coast, np.ascontiguousarray(reading.hit),
+            np.ascontiguousarray(reading.valid), np.ascontiguousarray(reading.ranges, dtype=np.float64),
+            np.ascontiguousarray(reading.directions, dtype=np.float64), v, F, B, Q, self._R[0, 0], self._P0,
+            cfg.gate_sigma**2, cfg.max_coast)
 
     def _estimate(self, reading: SensorReading) -> RangeEstimate:
         """The current tracks as a :class:`RangeEstimate` of ``reading``."""
@@ -291,3 +275,74 @@ class RangeEstimator:
             valid=np.array(reading.valid),
             max_range=float(reading.max_range),
         )
+
+
+@numba.njit(cache=True)
+def _filter_stack(x, P, tracking, coast, hit, valid, z, dirs, v, F, B, Q, r, P0, gate2, max_coast):  # pragma: no cover
+    """One reading through every ray's filter, in place (``x`` (R, 2, 1), ``P`` (R, 2, 2), ``tracking``,
+    ``coast``); returns the number of gate resets.
+
+    Per ray: predict (``x = F x + B u``, ``u = -d . v``; ``P = F P F' + Q``; the range kept >= 0), update
+    (``S = H P H' + r``, ``K = P H' / S``, ``x = x + K (z - H x)``, ``P = (I - K H) P (I - K H)' + K r K'``,
+    ``H = [1, 0]``), then keep what the ray's case calls for (:meth:`RangeEstimator._filter`).  These are
+    the stacked ``numpy.matmul`` equations this kernel replaced, in numpy's order of operations
+    (:mod:`navstack.fused`), so the estimates are theirs bit for bit where BLAS fuses as OpenBLAS does."""
+    n_gated = 0
+    for i in range(x.shape[0]):
+        u = -fma(dirs[i, 2], v[2], fma(dirs[i, 0], v[0], dirs[i, 1] * v[1]))
+        x0, x1 = x[i, 0, 0], x[i, 1, 0]
+        p00, p01, p10, p11 = P[i, 0, 0], P[i, 0, 1], P[i, 1, 0], P[i, 1, 1]
+        # predict: F x (a matrix times a column) + B u (an inner dimension of 1)
+        X0 = fma(F[0, 0], x0, F[0, 1] * x1) + B[0, 0] * u
+        X1 = fma(F[1, 0], x0, F[1, 1] * x1) + B[1, 0] * u
+        X0 = X0 if X0 > 0.0 or X0 != X0 else 0.0  # a range is never negative (numpy.maximum: NaN stays, +0.0)
+        # (F P) F' + Q
+        a00 = fma(F[0, 1], p10, F[0, 0] * p00)
+        a01 = fma(F[0, 1], p11, F[0, 0] * p01)
+        a10 = fma(F[1, 1], p10, F[1, 0] * p00)
+        a11 = fma(F[1, 1], p11, F[1, 0] * p01)
+        q00 = fma(a01, F[0, 1], a00 * F[0, 0]) + Q[0, 0]
+        q01 = fma(a01, F[1, 1], a00 * F[1, 0]) + Q[0, 1]
+        q10 = fma(a11, F[0, 1], a10 * F[0, 0]) + Q[1, 0]
+        q11 = fma(a11, F[1, 1], a10 * F[1, 0]) + Q[1, 1]
+        tracked = tracking[i]
+        innovation = z[i] - X0  # NaN for dropouts: computed, never kept
+        gated = tracked and hit[i] and innovation * innovation > gate2 * (q00 + r)
+        updated = tracked and hit[i] and not gated
+        predicted = tracked and (hit[i] or not valid[i])
+        if updated:
+            # P H' (a column: P[:, 0] * 1 + P[:, 1] * 0 in numpy's order), S = H (P H') + r, K = (P H') / S
+            ph0 = fma(q00, 1.0, q01 * 0.0)
+            ph1 = fma(q10, 1.0, q11 * 0.0)
+            inv_s = 1.0 / (fma(0.0, ph1, 1.0 * ph0) + r)
+            k0, k1 = ph0 * inv_s, ph1 * inv_s
+            # I - K H
+            i00, i01 = 1.0 - k0 * 1.0, 0.0 - k0 * 0.0
+            i10, i11 = 0.0 - k1 * 1.0, 1.0 - k1 * 0.0
+            x[i, 0, 0] = X0 + k0 * innovation
+            x[i, 1, 0] = X1 + k1 * innovation
+            # ((I - K H) P) (I - K H)' + (K r) K'
+            b00 = fma(i01, q10, i00 * q00)
+            b01 = fma(i01, q11, i00 * q01)
+            b10 = fma(i11, q10, i10 * q00)
+            b11 = fma(i11, q11, i10 * q01)
+            kr0, kr1 = k0 * r, k1 * r
+            P[i, 0, 0] = fma(b01, i01, b00 * i00) + kr0 * k0
+            P[i, 0, 1] = fma(b01, i11, b00 * i10) + kr0 * k1
+            P[i, 1, 0] = fma(b11, i01, b10 * i00) + kr1 * k0
+            P[i, 1, 1] = fma(b11, i11, b10 * i10) + kr1 * k1
+        elif predicted:
+            x[i, 0, 0], x[i, 1, 0] = X0, X1
+            P[i, 0, 0], P[i, 0, 1], P[i, 1, 0], P[i, 1, 1] = q00, q01, q10, q11
+        if updated:
+            coast[i] = 0
+        elif tracked and not valid[i]:
+            coast[i] += 1
+        n_gated += gated
+        tracking[i] = tracked and not (valid[i] and not hit[i]) and coast[i] <= max_coast
+        if (not tracked and hit[i]) or gated:  # start (or restart) the track at the measurement
+            x[i, 0, 0], x[i, 1, 0] = z[i], 0.0
+            P[i] = P0
+            tracking[i] = True
+            coast[i] = 0
+    return n_gated

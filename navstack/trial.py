@@ -226,14 +226,20 @@ def run_trial(
     elif not isinstance(world, World):
         world = load_world(world)
     check_reach(world)
-    check_start(world)
-    out = check_out_dir(out_dir) if out_dir is not None else None
-    if out is not None:
-        from navstack.rundir import write_run_world
+    from navstack.sim.probe import build_scene
 
-        write_run_world(world, out)  # world.json (meshes copied to out/meshes/): animate and view read it
+    built = build_scene(world, visuals=render)  # the trial's client: the start is checked in it, then simulated
+    try:
+        check_start(world, built)
+        out = check_out_dir(out_dir) if out_dir is not None else None
+        if out is not None:
+            from navstack.rundir import write_run_world
 
-    sim = _Simulation(world, controller, planner, int(seed), cfg, visuals=render)
+            write_run_world(world, out)  # world.json (meshes copied to out/meshes/): animate and view read it
+        sim = _Simulation(world, controller, planner, int(seed), cfg, visuals=render, built=built)
+    except BaseException:
+        built[0].disconnect()
+        raise
     wall0 = time.perf_counter()
     try:
         reason = sim.run()
@@ -324,18 +330,25 @@ def check_reach(world) -> None:
                 file=world.source, json_path=f"goals[{k}].position")
 
 
-def check_start(world) -> None:
+def check_start(world, built: tuple[Any, Any, Any] | None = None) -> None:
     """Refuse a robot that starts in contact with or inside an obstacle (``WorldError`` naming it).
 
     Checked in PyBullet: the robot at ``q0`` and the obstacles at t = 0 (moving ones displaced by their
     ``d(0)``); an obstacle at a signed distance <= 0 m from any robot link is named by its JSON path
     (``obstacles[3]``).  Such a trial would count a contact from its first step; refusing it makes the
     world's mistake bad input.  A robot part inside a closed *mesh* is not seen (meshes are surfaces).
+    ``built``: the ``(client, body, scene)`` of :func:`navstack.sim.probe.build_scene` a trial is about to run
+    in, checked there (one client per trial); else a throwaway one is built.
     """
-    from navstack.sim.probe import start_scene
-
-    with start_scene(world) as (body, scene):
+    if built is not None:
+        client, body, scene = built
+        client.performCollisionDetection()  # as run() begins: link poses current for the distance queries
         hits = scene.touching(body.body_id)
+    else:
+        from navstack.sim.probe import start_scene
+
+        with start_scene(world) as (body, scene):
+            hits = scene.touching(body.body_id)
     if hits:
         i, d = hits[0]
         how = "touches" if d > -1e-6 else f"penetrates {-d:.3g} m into"
@@ -361,12 +374,12 @@ class _Simulation:
     """The PyBullet side and the pipeline objects of one trial."""
 
     def __init__(self, world, controller: str, planner: str, seed: int, cfg: TrialConfig,
-                 visuals: bool = False) -> None:
-        """``visuals``: build the bodies with visual shapes (for ``render_scene``; nothing else reads them)."""
+                 visuals: bool = False, built: tuple[Any, Any, Any] | None = None) -> None:
+        """``visuals``: build the bodies with visual shapes (for ``render_scene``; nothing else reads them).
+        ``built``: the ``(client, body, scene)`` of :func:`navstack.sim.probe.build_scene` for ``world`` and
+        ``visuals``, made by the caller (who checked the start in it); None: built here."""
         from navstack.registry import CONTROLLERS, PLANNERS, PlannerContext, load
-        from navstack.sim._bullet import direct_client
-        from navstack.sim.body import RobotBody
-        from navstack.sim.scene import Scene, SceneOptions
+        from navstack.sim.probe import build_scene
         from navstack.sim.servo import JointServo
 
         self.world = world
@@ -375,22 +388,12 @@ class _Simulation:
         self.seed = seed
         self.cfg = cfg
         self.chain = jpl_serpentine()
-        self.client = direct_client()
+        self.client, self.body, self.scene = built if built is not None else build_scene(world, visuals)
         robot = world.robot
         self.T0 = robot.base.transform()
         self.R0 = self.T0[:3, :3]
         self.p0 = self.T0[:3, 3]
-        self.body = RobotBody.build(
-            self.client,
-            self.chain,
-            self.T0,
-            serpentine_radius=robot.serpentine_radius,
-            arm_radius=robot.arm_radius,
-            visuals=visuals,
-        )
         self.q0 = self.chain.check(robot.q0)
-        self.body.reset(self.q0)
-        self.scene = Scene.build(self.client, world, SceneOptions(visuals=visuals))
         for obstacle in self.scene.body_ids:  # contact is measured, not simulated (module docstring)
             for link in range(-1, self.client.getNumJoints(self.body.body_id)):
                 self.client.setCollisionFilterPair(self.body.body_id, obstacle, link, -1, 0)

@@ -450,3 +450,66 @@ def test_equal_to_the_per_ray_filterpy_filters_on_a_recorded_trial():
         np.testing.assert_array_equal(out.valid, data["valid"][k])
         assert out.max_range == float(data["max_range"])
     assert est.n_resets == int(data["n_resets"]) == 14
+
+
+def _numpy_filter(est: RangeEstimator, reading: SensorReading, dt: float, v: np.ndarray) -> None:
+    """The stacked equations as numpy ``matmul`` over the stack (the code the compiled kernel replaced)."""
+    cfg = est.config
+    F, Ft, B, Q = est._model(dt)
+    hit, valid, z = reading.hit, reading.valid, reading.ranges
+    tracked = est.tracking
+    x = F @ est._x + B @ -(reading.directions @ v)[:, None, None]
+    P = F @ est._P @ Ft + Q
+    np.maximum(x[:, 0, 0], 0.0, out=x[:, 0, 0])
+    predicted = tracked & (hit | ~valid)
+    innovation = z - x[:, 0, 0]
+    gated = tracked & hit & (innovation * innovation > cfg.gate_sigma**2 * (P[:, 0, 0] + est._R[0, 0]))
+    updated = tracked & hit & ~gated
+    H, R = est._H, est._R
+    PHT = P @ H.T
+    K = PHT @ (1.0 / (H @ PHT + R))
+    I_KH = np.eye(2) - K @ H
+    x_post = x + K @ innovation[:, None, None]
+    P_post = I_KH @ P @ I_KH.transpose(0, 2, 1) + K @ R @ K.transpose(0, 2, 1)
+    keep, pred = updated[:, None, None], predicted[:, None, None]
+    est._x = np.where(keep, x_post, np.where(pred, x, est._x))
+    est._P = np.where(keep, P_post, np.where(pred, P, est._P))
+    est._coast = np.where(updated, 0, est._coast + (tracked & ~valid))
+    est.n_resets += int(np.count_nonzero(gated))
+    est.tracking = tracked & ~(valid & ~hit) & (est._coast <= cfg.max_coast)
+    starts = (~tracked & hit) | gated
+    est._start(np.flatnonzero(starts), z[starts])
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_compiled_stack_equals_numpys_stacked_equations(seed):
+    """57 rays with hits, misses, dropouts and jumps: the kernel's states equal numpy's matmul over the stack,
+    bit for bit where numpy's BLAS fuses as OpenBLAS (tests/test_fused.py), else to 1e-15."""
+    from _blas import FUSES
+
+    rng = np.random.default_rng(seed)
+    cfg = SensorConfig()
+    a, b = RangeEstimator(cfg), RangeEstimator(cfg)
+    dirs = ray_directions(cfg)
+    base = rng.uniform(0.05, 0.35, cfg.n_rays)
+    resets = 0
+    for k in range(300):
+        v = rng.normal(scale=0.05, size=3)
+        true = base + 0.02 * np.sin(0.1 * k + np.arange(cfg.n_rays))
+        true = np.where(rng.random(cfg.n_rays) < 0.05, true - 0.1, true)  # jumps: gate resets
+        hit = (true > 0.0) & (rng.random(cfg.n_rays) < 0.9)
+        valid = rng.random(cfg.n_rays) >= 0.1
+        ranges = np.where(valid, np.where(hit, true + 0.004 * rng.standard_normal(cfg.n_rays), 0.4), np.nan)
+        reading = SensorReading(np.tile(v * k * 0.033, (cfg.n_rays, 1)), dirs, ranges, hit & valid, valid, 0.4)
+        a._filter(reading, 1.0 / 30.0, v)
+        _numpy_filter(b, reading, 1.0 / 30.0, v)
+        assert a.n_resets == b.n_resets
+        np.testing.assert_array_equal(a.tracking, b.tracking)
+        np.testing.assert_array_equal(a._coast, b._coast)
+        for got, want in ((a._x, b._x), (a._P, b._P)):
+            if FUSES:
+                np.testing.assert_array_equal(got, want)
+            else:
+                np.testing.assert_allclose(got, want, rtol=1e-15, atol=1e-18)
+        resets = a.n_resets
+    assert resets > 50 and a.tracking.any() and not a.tracking.all()

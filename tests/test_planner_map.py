@@ -345,6 +345,36 @@ def test_update_fuses_many_rays_at_once_like_one_at_a_time():
     assert a.n_points > len(expected)  # and some shadows
 
 
+def test_update_merges_hits_and_shadows_in_one_pass_as_add_points_in_turn_would():
+    """``update`` merges a reading's hits and then their shadows, depth by depth, in one compiled pass: the
+    stored points, their slots, links, counts and flags, and the new points are those of ``add_points`` on
+    the hits and then on each depth's shadows (only the version moves once, not once per call)."""
+    rng = np.random.default_rng(11)
+    hits = np.vstack([_voxel_cloud(rng, 60, lo=(0.05, 0.05, 0.05), hi=(0.55, 0.35, 0.35))] * 2)  # each twice
+    hits[60:] += rng.uniform(-0.002, 0.002, (60, 3))  # ... the second time moved a little
+    dirs = rng.normal(size=hits.shape)
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    sets = [hits] + [hits + depth * dirs for depth in CFG.shadow_depths]
+    sets.append(hits[:20] + 0.001)  # shadows landing in the hits' voxels: refused there
+    a, b = _map(), _map()
+    for m in (a, b):
+        m.mark_free([0.3, 0.2, 0.2], 0.06)  # no shadow in a cell seen free
+        m.add_points(hits[:10] + 0.3 * CFG.voxel)  # points already there
+        m.new_points = np.empty((0, 3))
+    a._merge(np.ascontiguousarray(np.vstack(sets)), len(hits))
+    b.add_points(sets[0])
+    for shadows in sets[1:]:
+        b.add_points(shadows, shadow=True)
+    assert a.n_slots == b.n_slots > len(hits) // 2
+    n = a.n_slots
+    for name in ("_P", "_count", "_evidence", "_alive", "_next", "_shadow"):
+        np.testing.assert_array_equal(getattr(a, name)[:n], getattr(b, name)[:n], err_msg=name)
+    np.testing.assert_array_equal(a.head, b.head)
+    np.testing.assert_array_equal(a.new_points, b.new_points)
+    assert a._voxels == b._voxels and a._shadow_voxels == b._shadow_voxels
+    assert a._shadow[:n].any() and not a._shadow[:n].all()
+
+
 # ---------------------------------------------------------------------------- shadow points
 def test_shadows_are_kept_apart_from_surface_points_and_count_as_surfaces():
     smap = _map()

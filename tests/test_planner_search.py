@@ -568,3 +568,69 @@ def test_the_search_reads_the_navigation_function_on_demand_with_the_same_plan(s
     print(f"\nslot at y = {slot_y}: {settled} of {np.isfinite(values).sum()} reachable cells settled")
     assert 0 < settled < 0.9 * np.isfinite(values).sum()
     np.testing.assert_array_equal(lazy.values, values)
+
+
+# ---------------------------------------------------------------------------- densifying a plan
+def test_norm3_is_the_correctly_rounded_root_of_the_fused_sum_and_numpys_norm_within_an_ulp():
+    from fractions import Fraction
+
+    from navstack.planner.search import _norm3
+
+    def fma(a: float, b: float, c: float) -> float:  # exact a * b + c, rounded once
+        return float(Fraction(a) * Fraction(b) + Fraction(c))
+
+    rng = np.random.default_rng(7)
+    for x, y, z in (rng.normal(size=(2000, 3)) * rng.uniform(0.5, 2.0, size=(2000, 1))).tolist():
+        got = _norm3(x, y, z)
+        assert got == math.sqrt(fma(z, z, fma(y, y, x * x)))
+        assert abs(got - float(np.linalg.norm([x, y, z]))) <= math.ulp(got)
+
+
+def _densify_reference(buf, last, p0, h0, k0, dc, ds, sample):
+    """The plan's samples as the Python loop before the compiled kernel made them (numpy per sample)."""
+    from navstack.planner.search import _arc, _basis
+
+    chain = []
+    node = last
+    while node > 0:
+        chain.append(node)
+        node = int(buf.PAR[node])
+    chain.reverse()
+    pts, tans, ks = [p0.copy()], [h0.copy()], [k0]
+    for node in chain:
+        par = int(buf.PAR[node])
+        p, h = buf.P[par], buf.H[par]
+        m = int(buf.DIR[node])
+        u, w = _basis(h[0], h[1], h[2])
+        n = dc[m] * np.array(u) + ds[m] * np.array(w)
+        length = float(buf.END[node])
+        count = max(1, int(math.ceil(length / sample)))
+        for j in range(1, count + 1):
+            x = _arc(p[0], p[1], p[2], h[0], h[1], h[2], n[0], n[1], n[2], float(buf.KAP[node]), length * j / count)
+            pts.append(np.array(x[:3]))
+            t = np.array(x[3:])
+            tans.append(t / np.linalg.norm(t))
+            ks.append(int(buf.K[node]) if j == count else int(buf.K[par]))
+    return np.array(pts), np.array(tans), np.array(ks)
+
+
+@pytest.mark.parametrize("slot_y", [0.1, -0.15])
+def test_the_compiled_densify_gives_the_python_loops_samples(slot_y):
+    """The search's plan is densified by a compiled kernel: the same samples as the numpy loop it replaced
+    (to 1e-15 m; bit for bit where BLAS's dot product fuses its multiply-adds, as OpenBLAS's does)."""
+    from navstack.planner.search import _BUFFERS, _densify_kernel, primitives
+
+    plan = _plan(_map(_wall(slot_y)), [1.0, 0.0, 0.05])
+    assert plan.status == REACHED and len(plan.points) > 100
+    buf = _BUFFERS[CFG.max_expansions * len(primitives(CFG)[0]) + 1]  # the search's nodes, still there
+    last = int(np.flatnonzero(np.all(buf.P == plan.points[-1], axis=1))[0])  # the plan's last node
+    _, dc, ds = primitives(CFG)
+    p0, h0 = plan.points[0], plan.tangents[0]
+    ref = _densify_reference(buf, last, p0, h0, 0, dc, ds, 0.005)
+    got = _densify_kernel(buf.P, buf.H, buf.K, buf.PAR, buf.DIR, buf.KAP, buf.END, last, p0, h0, 0, dc, ds, 0.005)
+    for a, b in zip(got, ref, strict=True):
+        assert a.shape == b.shape
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(got[2], ref[2])
+    np.testing.assert_array_equal(got[0], plan.points)
+    np.testing.assert_allclose(np.linalg.norm(got[1], axis=1), 1.0, atol=1e-15)

@@ -121,6 +121,19 @@ def test_timeout_is_reported(tmp_path):
     assert r.reason == "timeout" and not r.success and r.sim_time == pytest.approx(3.0, abs=0.02)
 
 
+def test_a_trial_checks_its_start_and_runs_in_one_client(monkeypatch):
+    """One PyBullet client per trial: the start check is made in the client the trial then simulates in."""
+    import navstack.sim._bullet
+
+    made = []
+    real = navstack.sim._bullet.direct_client
+    monkeypatch.setattr(navstack.sim._bullet, "direct_client", lambda: made.append(1) or real())
+    data = paper_truss_world()
+    data["time_limit"] = 0.5
+    r = run_trial(world_from_dict(data), planner="scripted")
+    assert r.reason == "timeout" and len(made) == 1
+
+
 def test_cli_run_writes_outputs_and_exit_codes(tmp_path, capsys):
     world = WORLDS / "paper_truss.json"
     assert main(["run", str(world), "--out", str(tmp_path / "a"), "--planner", "scripted"]) == 0

@@ -340,7 +340,7 @@ def test_contact_is_measured_not_simulated(hold_planner, monkeypatch, frame):
 
     (A world like this is refused as input, ``check_start``; the check is switched off here to see what the
     simulation itself does with a contact.)"""
-    monkeypatch.setattr(navstack.trial, "check_start", lambda world: None)
+    monkeypatch.setattr(navstack.trial, "check_start", lambda world, built=None: None)
     seen = []
     original = Scene.clearance
 

@@ -313,17 +313,20 @@ def _voxel_keys(pts, origin, voxel):  # pragma: no cover - jitted
 
 
 @numba.njit(cache=True)
-def _merge_points(first, pts, keys, shadow, voxels, P, count, evidence, alive, nxt, is_shadow, head, n, origin,
-                  bucket, bdims, free, free_cell, fdims, average, initial_evidence, max_evidence, changed,
-                  n_changed):  # pragma: no cover - jitted
-    """Merge ``pts[first:]`` (packed voxel ``keys``) into their voxels (:meth:`SensedMap.add_points`), writing
-    the points added or moved to ``changed[n_changed:]``.
+def _merge_points(first, pts, keys, n_plain, plain_voxels, shadow_voxels, P, count, evidence, alive, nxt, is_shadow,
+                  head, n, origin, bucket, bdims, free, free_cell, fdims, average, initial_evidence, max_evidence,
+                  changed, n_changed):  # pragma: no cover - jitted
+    """Merge ``pts[first:]`` (packed voxel ``keys``) into their voxels (:meth:`SensedMap.add_points`), in order,
+    writing the points added or moved to ``changed[n_changed:]``: ``pts[:n_plain]`` are surface points (voxels
+    ``plain_voxels``), the rest shadow points (``shadow_voxels``).
 
     Stops before the first point that needs a new slot when all ``P.shape[0]`` are in use.  Returns
     ``(points done, slots in use, n_changed)``."""
     for t in range(first, pts.shape[0]):
         px, py, pz = pts[t, 0], pts[t, 1], pts[t, 2]
         key = keys[t]
+        shadow = t >= n_plain
+        voxels = shadow_voxels if shadow else plain_voxels
         idx = voxels[key] if key in voxels else -1
         if shadow:
             if idx >= 0:
@@ -461,20 +464,24 @@ class SensedMap:
         ``max_evidence``); a point in a voxel whose point was removed puts it back (``initial_evidence``).  A
         shadow is placed once: a shadow voxel takes no further points, even once its point is removed."""
         pts = np.ascontiguousarray(np.asarray(pts, dtype=np.float64).reshape(-1, 3))
+        self._merge(pts, 0 if shadow else pts.shape[0])
+
+    def _merge(self, pts: NDArray[np.float64], n_plain: int) -> None:
+        """Merge ``pts`` (K, 3), contiguous, in order: the first ``n_plain`` as surface points, the rest as
+        shadow points (one compiled pass; :meth:`add_points` on each part in turn does the same)."""
         cfg = self.config
         keys, bad = _voxel_keys(pts, self.origin, cfg.voxel)
         if bad >= 0:
             raise ValueError(f"SensedMap.add_points: point {pts[bad]} is not finite or lies more than {_KEY_OFFSET} "
                              f"voxels ({_KEY_OFFSET * cfg.voxel:g} m) from the map origin {self.origin}")
-        voxels = self._shadow_voxels if shadow else self._voxels
         changed = np.empty((pts.shape[0], 3))
         done = n_changed = 0
         while True:
             done, self._n, n_changed = _merge_points(
-                done, pts, keys, shadow, voxels, self._P, self._count, self._evidence, self._alive, self._next,
-                self._shadow, self.head, self._n, self.origin, cfg.bucket, self.bucket_dims, self.free,
-                cfg.free_cell, self.free_dims, cfg.average, cfg.initial_evidence, cfg.max_evidence, changed,
-                n_changed)
+                done, pts, keys, n_plain, self._voxels, self._shadow_voxels, self._P, self._count, self._evidence,
+                self._alive, self._next, self._shadow, self.head, self._n, self.origin, cfg.bucket,
+                self.bucket_dims, self.free, cfg.free_cell, self.free_dims, cfg.average, cfg.initial_evidence,
+                cfg.max_evidence, changed, n_changed)
             if done == pts.shape[0]:
                 break
             self._grow()  # out of slots: double them, and go on from the point that needed one
@@ -508,10 +515,10 @@ class SensedMap:
         if removed:
             self.version += 1
         m = use & h
-        if np.any(m):
-            self.add_points(o[m] + rg[m, None] * d[m])
-            for depth in cfg.shadow_depths:
-                self.add_points(o[m] + (rg[m, None] + depth) * d[m], shadow=True)
+        if np.any(m):  # the hits, then their shadows depth by depth, in one pass
+            om, rm, dm = o[m], rg[m, None], d[m]
+            hits = om + rm * dm
+            self._merge(np.concatenate([hits] + [om + (rm + depth) * dm for depth in cfg.shadow_depths]), len(hits))
         if _purge_shadows(self._alive, self._shadow, self._n, self._P, self.free, self.origin, cfg.free_cell,
                           self.free_dims):
             self.version += 1

@@ -35,6 +35,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from navstack.fused import fma
 from navstack.planner.map import SensedMap
 from navstack.planner.potential import (
     BLOCKED,
@@ -743,8 +744,7 @@ def search(smap: SensedMap, start: ArrayLike, heading: ArrayLike, goals: ArrayLi
         box_lo, box_hi, buf.P, buf.H, buf.K, buf.G, buf.PAR, buf.KAP, buf.DIR, buf.END, buf.L)
     if status == PARTIAL and last == 0:
         status = NO_PATH  # no state closer to the goal than the start: no way on
-    return _densify(buf, int(status), int(last), int(expansions), p0, h0, k0, kap, dc, ds,
-                    config.step, sample)
+    return _densify(buf, int(status), int(last), int(expansions), p0, h0, k0, dc, ds, sample)
 
 
 def navigation_region(p0: NDArray[np.float64], goal: NDArray[np.float64],
@@ -755,36 +755,63 @@ def navigation_region(p0: NDArray[np.float64], goal: NDArray[np.float64],
     return lo, hi
 
 
-def _densify(buf: _Buffers, status: int, last: int, expansions: int, p0, h0, k0: int, kap, dc, ds, step: float,
+def _densify(buf: _Buffers, status: int, last: int, expansions: int, p0, h0, k0: int, dc, ds,
              sample: float) -> Plan:
-    chain = []
-    node = last
-    while node > 0:
-        chain.append(node)
-        node = int(buf.PAR[node])
-    chain.reverse()
-    pts = [p0.copy()]
-    tans = [h0.copy()]
-    ks = [k0]
-    for node in chain:
-        par = int(buf.PAR[node])
-        p, h = buf.P[par], buf.H[par]
-        m = int(buf.DIR[node])
-        u, w = _basis(h[0], h[1], h[2])
-        n = dc[m] * np.array(u) + ds[m] * np.array(w)
-        length = float(buf.END[node])
-        count = max(1, int(math.ceil(length / sample)))
-        for j in range(1, count + 1):
-            x = _arc(p[0], p[1], p[2], h[0], h[1], h[2], n[0], n[1], n[2], float(buf.KAP[node]), length * j / count)
-            pts.append(np.array(x[:3]))
-            t = np.array(x[3:])
-            tans.append(t / np.linalg.norm(t))
-            ks.append(int(buf.K[node]) if j == count else int(buf.K[par]))
-    P = np.array(pts)
+    """The plan of the node chain ending at ``last``: its arcs sampled every ``sample`` [m] or less."""
+    P, tans, ks = _densify_kernel(buf.P, buf.H, buf.K, buf.PAR, buf.DIR, buf.KAP, buf.END, last, p0, h0, k0,
+                                  dc, ds, sample)
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))])
-    cost = float(buf.G[last]) if chain else 0.0
+    cost = float(buf.G[last]) if last > 0 else 0.0
     if status == NO_PATH:
         P, arc = P[:1], arc[:1]
         tans, ks = tans[:1], ks[:1]
-    return Plan(points=P, tangents=np.array(tans), arc=arc, goal_index=np.array(ks, dtype=np.int64),
-                status=status, cost=cost, expansions=expansions)
+    return Plan(points=P, tangents=tans, arc=arc, goal_index=ks, status=status, cost=cost, expansions=expansions)
+
+
+@numba.njit(cache=True)
+def _norm3(x, y, z):  # pragma: no cover - jitted
+    """``numpy.linalg.norm`` of (x, y, z) bit for bit: the square root of BLAS ``ddot``'s sum
+    (:mod:`navstack.fused`)."""
+    return math.sqrt(fma(z, z, fma(y, y, x * x)))
+
+
+@numba.njit(cache=True)
+def _densify_kernel(NP, NH, NK, NPAR, NDIR, NKAP, NEND, last, p0, h0, k0, dc, ds, sample):  # pragma: no cover
+    """Points (N, 3), unit tangents (N, 3) and goal indices (N,) along the arcs from the root to node ``last``:
+    each arc in ``ceil(length / sample)`` equal steps, the start state first."""
+    n_chain = 0
+    total = 1
+    node = last
+    while node > 0:
+        n_chain += 1
+        total += max(1, int(math.ceil(NEND[node] / sample)))
+        node = NPAR[node]
+    chain = np.empty(n_chain, dtype=np.int64)
+    node = last
+    for i in range(n_chain - 1, -1, -1):
+        chain[i] = node
+        node = NPAR[node]
+    pts = np.empty((total, 3))
+    tans = np.empty((total, 3))
+    ks = np.empty(total, dtype=np.int64)
+    pts[0] = p0
+    tans[0] = h0
+    ks[0] = k0
+    i = 1
+    for node in chain:
+        par = NPAR[node]
+        px, py, pz = NP[par, 0], NP[par, 1], NP[par, 2]
+        hx, hy, hz = NH[par, 0], NH[par, 1], NH[par, 2]
+        m = int(NDIR[node])
+        u, w = _basis(hx, hy, hz)
+        nx, ny, nz = dc[m] * u[0] + ds[m] * w[0], dc[m] * u[1] + ds[m] * w[1], dc[m] * u[2] + ds[m] * w[2]
+        length = NEND[node]
+        count = max(1, int(math.ceil(length / sample)))
+        for j in range(1, count + 1):
+            x, y, z, tx, ty, tz = _arc(px, py, pz, hx, hy, hz, nx, ny, nz, NKAP[node], length * j / count)
+            pts[i, 0], pts[i, 1], pts[i, 2] = x, y, z
+            tn = _norm3(tx, ty, tz)
+            tans[i, 0], tans[i, 1], tans[i, 2] = tx / tn, ty / tn, tz / tn
+            ks[i] = NK[node] if j == count else NK[par]
+            i += 1
+    return pts, tans, ks
