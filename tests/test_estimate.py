@@ -484,7 +484,7 @@ def _numpy_filter(est: RangeEstimator, reading: SensorReading, dt: float, v: np.
 @pytest.mark.parametrize("seed", [0, 1])
 def test_the_compiled_stack_equals_numpys_stacked_equations(seed):
     """57 rays with hits, misses, dropouts and jumps: the kernel's states equal numpy's matmul over the stack,
-    bit for bit where numpy's BLAS fuses as OpenBLAS (tests/test_fused.py), else to 1e-15."""
+    bit for bit where numpy's BLAS fuses as OpenBLAS (tests/test_fused.py), else to 1e-12 (the filterpy bound)."""
     from _blas import FUSES
 
     rng = np.random.default_rng(seed)
@@ -510,6 +510,6 @@ def test_the_compiled_stack_equals_numpys_stacked_equations(seed):
             if FUSES:
                 np.testing.assert_array_equal(got, want)
             else:
-                np.testing.assert_allclose(got, want, rtol=1e-15, atol=1e-18)
+                np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-15)
         resets = a.n_resets
     assert resets > 50 and a.tracking.any() and not a.tracking.all()

@@ -571,7 +571,7 @@ def test_the_search_reads_the_navigation_function_on_demand_with_the_same_plan(s
 
 
 # ---------------------------------------------------------------------------- densifying a plan
-def test_norm3_is_the_correctly_rounded_root_of_the_fused_sum_and_numpys_norm_within_an_ulp():
+def test_norm3_is_the_correctly_rounded_root_of_the_fused_sum_and_numpys_norm_within_two_ulp():
     from fractions import Fraction
 
     from navstack.planner.search import _norm3
@@ -583,7 +583,7 @@ def test_norm3_is_the_correctly_rounded_root_of_the_fused_sum_and_numpys_norm_wi
     for x, y, z in (rng.normal(size=(2000, 3)) * rng.uniform(0.5, 2.0, size=(2000, 1))).tolist():
         got = _norm3(x, y, z)
         assert got == math.sqrt(fma(z, z, fma(y, y, x * x)))
-        assert abs(got - float(np.linalg.norm([x, y, z]))) <= math.ulp(got)
+        assert abs(got - float(np.linalg.norm([x, y, z]))) <= 2 * math.ulp(got)
 
 
 def _densify_reference(buf, last, p0, h0, k0, dc, ds, sample):
