@@ -194,12 +194,12 @@ class RangeEstimator:
         self._last_origin = None
 
     def _model(self, dt: float) -> tuple[NDArray[np.float64], ...]:
-        """``F``, ``F'``, ``B`` and ``Q`` for a step of ``dt`` [s] (built once per distinct ``dt``)."""
+        """``F``, ``B`` and ``Q`` for a step of ``dt`` [s] (built once per distinct ``dt``)."""
         model = self._models.get(dt)
         if model is None:
             F = np.array([[1.0, dt], [0.0, 1.0]])
             Q = Q_discrete_white_noise(dim=2, dt=dt, var=self.config.rate_process_std**2)
-            model = (F, np.ascontiguousarray(F.T), np.array([[dt], [0.0]]), Q)
+            model = (F, np.array([[dt], [0.0]]), Q)
             if len(self._models) < 16:
                 self._models[dt] = model
         return model
@@ -253,7 +253,7 @@ class RangeEstimator:
         a tracked ray's hit is predicted and updated (or restarted beyond the gate), its dropout predicted
         (coasting), its valid miss stops the track; an untracked ray's hit starts one (:func:`_filter_stack`)."""
         cfg = self.config
-        F, _, B, Q = self._model(dt)
+        F, B, Q = self._model(dt)
         self.n_resets += _filter_stack(
             self._x, self._P, self.tracking, self._coast, np.ascontiguousarray(reading.hit),
             np.ascontiguousarray(reading.valid), np.ascontiguousarray(reading.ranges, dtype=np.float64),

@@ -19,10 +19,12 @@ nothing but bit-for-bit comparisons with the numpy code these kernels replaced.
 
 from __future__ import annotations
 
+import math
+
 import numba
 from numba.extending import intrinsic
 
-__all__ = ["fma"]
+__all__ = ["fma", "norm3"]
 
 
 @intrinsic
@@ -37,3 +39,9 @@ def _fma(typingctx, a, b, c):  # pragma: no cover - compiled
 def fma(a: float, b: float, c: float) -> float:  # pragma: no cover - jitted
     """``a * b + c`` rounded once (float64)."""
     return _fma(a, b, c)
+
+
+@numba.njit(cache=True)
+def norm3(x: float, y: float, z: float) -> float:  # pragma: no cover - jitted
+    """``numpy.linalg.norm`` of the vector (x, y, z): the square root of ``ddot``'s fused sum, in index order."""
+    return math.sqrt(fma(z, z, fma(y, y, x * x)))

@@ -340,15 +340,15 @@ def check_start(world, built: tuple[Any, Any, Any] | None = None) -> None:
     ``built``: the ``(client, body, scene)`` of :func:`navstack.sim.probe.build_scene` a trial is about to run
     in, checked there (one client per trial); else a throwaway one is built.
     """
-    if built is not None:
-        client, body, scene = built
+    from navstack.sim.probe import build_scene
+
+    client, body, scene = built if built is not None else build_scene(world)
+    try:
         client.performCollisionDetection()  # as run() begins: link poses current for the distance queries
         hits = scene.touching(body.body_id)
-    else:
-        from navstack.sim.probe import start_scene
-
-        with start_scene(world) as (body, scene):
-            hits = scene.touching(body.body_id)
+    finally:
+        if built is None:
+            client.disconnect()
     if hits:
         i, d = hits[0]
         how = "touches" if d > -1e-6 else f"penetrates {-d:.3g} m into"

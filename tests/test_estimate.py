@@ -455,7 +455,8 @@ def test_equal_to_the_per_ray_filterpy_filters_on_a_recorded_trial():
 def _numpy_filter(est: RangeEstimator, reading: SensorReading, dt: float, v: np.ndarray) -> None:
     """The stacked equations as numpy ``matmul`` over the stack (the code the compiled kernel replaced)."""
     cfg = est.config
-    F, Ft, B, Q = est._model(dt)
+    F, B, Q = est._model(dt)
+    Ft = F.T
     hit, valid, z = reading.hit, reading.valid, reading.ranges
     tracked = est.tracking
     x = F @ est._x + B @ -(reading.directions @ v)[:, None, None]

@@ -571,17 +571,17 @@ def test_the_search_reads_the_navigation_function_on_demand_with_the_same_plan(s
 
 
 # ---------------------------------------------------------------------------- densifying a plan
-def test_norm3_is_the_correctly_rounded_root_of_the_fused_sum_and_numpys_norm_within_two_ulp():
+def test_fused_norm3_is_the_correctly_rounded_root_of_the_fused_sum_and_numpys_norm_within_two_ulp():
     from fractions import Fraction
 
-    from navstack.planner.search import _norm3
+    from navstack.fused import norm3
 
     def fma(a: float, b: float, c: float) -> float:  # exact a * b + c, rounded once
         return float(Fraction(a) * Fraction(b) + Fraction(c))
 
     rng = np.random.default_rng(7)
     for x, y, z in (rng.normal(size=(2000, 3)) * rng.uniform(0.5, 2.0, size=(2000, 1))).tolist():
-        got = _norm3(x, y, z)
+        got = norm3(x, y, z)
         assert got == math.sqrt(fma(z, z, fma(y, y, x * x)))
         assert abs(got - float(np.linalg.norm([x, y, z]))) <= 2 * math.ulp(got)
 

@@ -35,7 +35,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from navstack.fused import fma
+from navstack.fused import norm3
 from navstack.planner.map import SensedMap
 from navstack.planner.potential import (
     BLOCKED,
@@ -769,13 +769,6 @@ def _densify(buf: _Buffers, status: int, last: int, expansions: int, p0, h0, k0:
 
 
 @numba.njit(cache=True)
-def _norm3(x, y, z):  # pragma: no cover - jitted
-    """``numpy.linalg.norm`` of (x, y, z) bit for bit: the square root of BLAS ``ddot``'s sum
-    (:mod:`navstack.fused`)."""
-    return math.sqrt(fma(z, z, fma(y, y, x * x)))
-
-
-@numba.njit(cache=True)
 def _densify_kernel(NP, NH, NK, NPAR, NDIR, NKAP, NEND, last, p0, h0, k0, dc, ds, sample):  # pragma: no cover
     """Points (N, 3), unit tangents (N, 3) and goal indices (N,) along the arcs from the root to node ``last``:
     each arc in ``ceil(length / sample)`` equal steps, the start state first."""
@@ -810,7 +803,7 @@ def _densify_kernel(NP, NH, NK, NPAR, NDIR, NKAP, NEND, last, p0, h0, k0, dc, ds
         for j in range(1, count + 1):
             x, y, z, tx, ty, tz = _arc(px, py, pz, hx, hy, hz, nx, ny, nz, NKAP[node], length * j / count)
             pts[i, 0], pts[i, 1], pts[i, 2] = x, y, z
-            tn = _norm3(tx, ty, tz)
+            tn = norm3(tx, ty, tz)
             tans[i, 0], tans[i, 1], tans[i, 2] = tx / tn, ty / tn, tz / tn
             ks[i] = NK[node] if j == count else NK[par]
             i += 1

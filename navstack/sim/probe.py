@@ -1,7 +1,7 @@
 """The robot at ``q0`` among a world's obstacles at t = 0 in a fresh PyBullet client: the scene a trial starts
-from (:func:`build_scene`; ``navstack.trial.run_trial`` checks the start in it, then simulates in it), and a
-throwaway copy of it for the checks made outside a trial (:func:`start_scene`: ``navstack.trial.check_start``
-on its own and ``navstack.generate.checks.start_clearance`` before a generated world is used).
+from (:func:`build_scene`: ``navstack.trial.run_trial`` checks the start in it, then simulates in it;
+``navstack.trial.check_start`` on its own builds one and drops it), and :func:`start_scene`, a throwaway one
+for ``navstack.generate.checks.start_clearance`` before a generated world is used.
 """
 
 from __future__ import annotations
