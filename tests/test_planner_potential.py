@@ -20,7 +20,7 @@ from scipy.spatial import cKDTree
 
 from navstack.planner.map import MapConfig, SensedMap
 from navstack.planner.potential import BLOCKED, Repulsion, cost_rate, navigation_function
-from navstack.planner.proximity import occupied_near
+from navstack.planner.proximity import point_index
 
 REP = Repulsion()
 RB = REP.r_block
@@ -30,8 +30,7 @@ SQ3_MAX = 1.1280928  # largest ratio of the 26-connected grid metric to the Eucl
 def _rate(smap: SensedMap, p, rep: Repulsion = REP, r_block: float | None = None) -> float:
     free, _, fcell, fdims = smap.free_arrays()
     rb = rep.r_block if r_block is None else r_block
-    return float(cost_rate(p[0], p[1], p[2], rb, rep.vector(), occupied_near(smap.head), *smap.arrays(), free,
-                           fcell, fdims))
+    return float(cost_rate(p[0], p[1], p[2], rb, rep.vector(), *point_index(smap), free, fcell, fdims))
 
 
 def _expected_rate(d: float, seen: bool, rep: Repulsion = REP) -> float:

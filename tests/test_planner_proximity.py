@@ -1,9 +1,10 @@
 """The search's proximity shortcut (navstack.planner.proximity): same answers as the full scan.
 
-References: the occupancy mask against a brute-force dilation in numpy; ``distance_below`` against
-:func:`navstack.planner.map.nearest_distance` (bit for bit) and against the brute-force nearest point,
-on random maps with points inside and beyond the map box, removed points and radii on both sides of
-the mask's reach.
+References: the occupancy mask against a brute-force dilation in numpy; the snapshot of
+:func:`point_index` against the map's own lists; ``nearest_in`` and ``distance_below`` against
+:func:`navstack.planner.map.nearest_distance` over the map's lists (bit for bit) and against the
+brute-force nearest point, on random maps with points inside and beyond the map box, removed points and
+radii on both sides of the mask's reach.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ import numpy as np
 import pytest
 
 from navstack.planner.map import MapConfig, SensedMap, nearest_distance
-from navstack.planner.proximity import REACH, distance_below, occupied_near
+from navstack.planner.proximity import REACH, distance_below, nearest_in, occupied_near, point_index
 
 
 def _brute_mask(head: np.ndarray) -> np.ndarray:
@@ -46,10 +47,43 @@ def _random_map(seed: int) -> SensedMap:
 
 
 @pytest.mark.parametrize("seed", range(3))
+def test_point_index_holds_each_live_point_once_in_its_bucket(seed):
+    smap = _random_map(seed)
+    occ, start, S, origin, bucket, dims = point_index(smap)
+    np.testing.assert_array_equal(occ, occupied_near(smap.head))
+    assert start[0] == 0 and np.all(np.diff(start) >= 0) and start[-1] == len(S)
+    live = smap.points
+    assert len(live) < smap.n_slots  # removed points are left out
+    np.testing.assert_array_equal(np.unique(S, axis=0), np.unique(live, axis=0))
+    assert len(S) == len(live)
+    cells = np.clip(np.floor((S - origin) / bucket).astype(int), 0, dims - 1)  # clipped: beyond the box, edges
+    flat = np.ravel_multi_index(tuple(cells.T), tuple(dims))
+    np.testing.assert_array_equal(flat, np.repeat(np.arange(len(start) - 1), np.diff(start)))
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_nearest_in_is_the_map_lists_scan_bit_for_bit(seed):
+    smap = _random_map(seed)
+    index = point_index(smap)
+    rng = np.random.default_rng(50 + seed)
+    live = smap.points
+    queries = np.concatenate([rng.uniform(-0.5, 1.0, size=(400, 3)),
+                              live[rng.integers(0, len(live), 400)] + 0.03 * rng.normal(size=(400, 3))])
+    below = 0
+    for r in (0.01, 0.035, 0.04, 0.075, 0.1, 0.2):
+        for q in queries:
+            got = nearest_in(q[0], q[1], q[2], r, *index[1:])
+            assert got == nearest_distance(q[0], q[1], q[2], r, *smap.arrays()), (q, r)
+            below += got < r
+    assert below > 1000
+
+
+@pytest.mark.parametrize("seed", range(3))
 def test_distance_below_equals_the_full_scan_bit_for_bit(seed):
     smap = _random_map(seed)
     arrays = smap.arrays()
-    occ = occupied_near(smap.head)
+    index = point_index(smap)
+    occ = index[0]
     rng = np.random.default_rng(100 + seed)
     live = smap.points
     away = rng.normal(size=(600, 3))
@@ -63,7 +97,7 @@ def test_distance_below_equals_the_full_scan_bit_for_bit(seed):
     assert 200 < empty.sum() < len(queries) - 200  # both ways are exercised
     for r in (0.01, 0.035, bucket, 0.075, REACH * bucket, REACH * bucket + 1e-3, 0.1, 0.115, 0.2):
         for q in queries:
-            fast = distance_below(q[0], q[1], q[2], r, occ, *arrays)
+            fast = distance_below(q[0], q[1], q[2], r, *index)
             full = nearest_distance(q[0], q[1], q[2], r, *arrays)
             assert fast == full, (q, r, fast, full)
             true = float(np.min(np.linalg.norm(live - q, axis=1)))
@@ -75,8 +109,7 @@ def test_samples_clear_is_distance_below_at_every_sample(seed):
     from navstack.planner.proximity import samples_clear
 
     smap = _random_map(seed)
-    arrays = smap.arrays()
-    occ = occupied_near(smap.head)
+    index = point_index(smap)
     rng = np.random.default_rng(200 + seed)
     live = smap.points
     work = np.empty((16, 3))
@@ -89,8 +122,8 @@ def test_samples_clear_is_distance_below_at_every_sample(seed):
             d = rng.normal(size=3)
             b = a + rng.uniform(0.02, 0.25) * d / np.linalg.norm(d)
             fracs = (np.array([1, 2, 3, 4, 5]) / 6.0 if t % 2 else np.sort(rng.random(rng.integers(1, 9))))
-            got = samples_clear(*a, *b, fracs, r, work, occ, *arrays)
-            want = all(distance_below(*(a + f * (b - a)), r, occ, *arrays) >= r for f in fracs)
+            got = samples_clear(*a, *b, fracs, r, work, *index)
+            want = all(distance_below(*(a + f * (b - a)), r, *index) >= r for f in fracs)
             assert got == want, (a, b, fracs, r)
             outcomes[got] += 1
     assert min(outcomes.values()) > 300, outcomes  # both answers, many times
@@ -101,8 +134,7 @@ def test_distances_below_is_distance_below_bit_for_bit(seed):
     from navstack.planner.proximity import distances_below
 
     smap = _random_map(seed)
-    arrays = smap.arrays()
-    occ = occupied_near(smap.head)
+    index = point_index(smap)
     rng = np.random.default_rng(300 + seed)
     live = smap.points
     bucket = smap.config.bucket
@@ -114,8 +146,8 @@ def test_distances_below_is_distance_below_bit_for_bit(seed):
             d = rng.normal(size=3)
             n = int(rng.integers(1, 9))
             xs = p + np.outer(np.arange(n), 0.01 * d / np.linalg.norm(d))  # a primitive's samples, 1 cm apart
-            distances_below(xs, n, r, out, occ, *arrays)
-            want = [distance_below(*x, r, occ, *arrays) for x in xs]
+            distances_below(xs, n, r, out, *index)
+            want = [distance_below(*x, r, *index) for x in xs]
             assert out[:n].tolist() == want, (xs, r)
             below += sum(w < r for w in want)
     assert below > 500

@@ -80,14 +80,14 @@ class Repulsion:
 
 
 @numba.njit(cache=True)
-def cost_rate(px, py, pz, r_block, prm, occ, P, alive, head, nxt, origin, bucket, bdims, free, fcell,
+def cost_rate(px, py, pz, r_block, prm, occ, start, S, origin, bucket, bdims, free, fcell,
               fdims):  # pragma: no cover - jitted
     """Cost per metre of path at (px, py, pz), or ``BLOCKED`` (-1); ``r_block`` may be relaxed by the caller.
 
-    ``prm`` = :meth:`Repulsion.vector` (``prm[0]``, the nominal r_block, is not used here); ``occ`` the
-    map's :func:`~navstack.planner.proximity.occupied_near` mask.
+    ``prm`` = :meth:`Repulsion.vector` (``prm[0]``, the nominal r_block, is not used here); ``occ .. bdims``
+    the map's :func:`~navstack.planner.proximity.point_index`.
     """
-    d = distance_below(px, py, pz, cost_reach(prm), occ, P, alive, head, nxt, origin, bucket, bdims)
+    d = distance_below(px, py, pz, cost_reach(prm), occ, start, S, origin, bucket, bdims)
     return cost_at(d, px, py, pz, r_block, prm, origin, free, fcell, fdims)
 
 

@@ -4,12 +4,18 @@ The search asks :func:`navstack.planner.map.nearest_distance` a hundred times pe
 mostly in open space, where it scans 27 or 125 empty buckets to answer "nothing within ``r``".
 :func:`occupied_near` marks, once per search, every bucket with a stored point (live or removed)
 within ``REACH`` buckets in each axis; :func:`distance_below` answers ``r`` at once for a query whose
-bucket is unmarked and asks :func:`nearest_distance` otherwise.  The scan of ``nearest_distance`` never
+bucket is unmarked and scans otherwise (:func:`nearest_in`).  The scan of ``nearest_distance`` never
 leaves that neighbourhood for ``r <= REACH * bucket``, so the answer is the same, bit for bit.
 
 Queries come in groups, the samples of one motion primitive a centimetre apart and the points along the
 last link: :func:`distances_below` and :func:`samples_clear` answer a group from one pass over the
-buckets around it (each bucket's list walked once, not once per point), with the same answers.
+buckets around it (each bucket walked once, not once per point), with the same answers.
+
+A search asks its questions of a map that does not change while it runs, so it asks them of a snapshot,
+:func:`point_index`: the live points copied out bucket by bucket, in the buckets' order (compressed
+sparse rows), so a run of buckets along z is one contiguous run of points, with no list to follow and
+no removed points to skip.  A minimum does not depend on the order its terms come in, so every answer is
+:func:`navstack.planner.map.nearest_distance`'s over the map's lists, bit for bit.
 """
 
 from __future__ import annotations
@@ -20,9 +26,10 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from navstack.planner.map import _cell, nearest_distance
+from navstack.planner.map import SensedMap, _cell
 
-__all__ = ["REACH", "distance_below", "distances_below", "occupied_near", "samples_clear"]
+__all__ = ["REACH", "distance_below", "distances_below", "nearest_in", "occupied_near", "point_index",
+           "samples_clear"]
 
 REACH = 2
 """Buckets of neighbourhood the mask covers (queries up to ``REACH * bucket`` use it)."""
@@ -57,20 +64,80 @@ def occupied_near(head: NDArray[np.int64]) -> NDArray[np.uint8]:  # pragma: no c
 
 
 @numba.njit(cache=True)
-def distance_below(px, py, pz, r, occ, P, alive, head, nxt, origin, bucket, dims):  # pragma: no cover - jitted
-    """:func:`nearest_distance` (same arguments, and ``occ`` from :func:`occupied_near` of ``head``),
+def _rows(P, alive, head, nxt):  # pragma: no cover - jitted
+    """The live points bucket by bucket: ``start`` (buckets + 1,), bucket ``b``'s points being
+    ``S[start[b]:start[b + 1]]`` (buckets in C order of ``head``), and ``S`` (live points, 3) [m]."""
+    nb = head.size
+    flat = head.reshape(nb)
+    start = np.zeros(nb + 1, dtype=np.int64)
+    for b in range(nb):
+        c = 0
+        q = flat[b]
+        while q >= 0:
+            if alive[q]:
+                c += 1
+            q = nxt[q]
+        start[b + 1] = start[b] + c
+    S = np.empty((start[nb], 3))
+    for b in range(nb):
+        c = start[b]
+        q = flat[b]
+        while q >= 0:
+            if alive[q]:
+                S[c, 0], S[c, 1], S[c, 2] = P[q, 0], P[q, 1], P[q, 2]
+                c += 1
+            q = nxt[q]
+    return start, S
+
+
+def point_index(smap: SensedMap) -> tuple:
+    """A snapshot of ``smap`` for the proximity kernels: ``(occ, start, S, origin, bucket, bucket_dims)``
+    (:func:`occupied_near`'s mask, the live points in bucket order); valid until the map changes."""
+    P, alive, head, nxt, origin, bucket, dims = smap.arrays()
+    start, S = _rows(P, alive, head, nxt)
+    return occupied_near(head), start, S, origin, bucket, dims
+
+
+@numba.njit(cache=True)
+def nearest_in(px, py, pz, r, start, S, origin, bucket, dims):  # pragma: no cover - jitted
+    """:func:`navstack.planner.map.nearest_distance` over the snapshot of :func:`point_index`: the distance [m]
+    to the nearest point of the buckets within ``ceil(r / bucket)`` of (px, py, pz)'s, exact below ``r``,
+    else ``r``."""
+    bx = _cell(px, origin, bucket, dims, 0)
+    by = _cell(py, origin, bucket, dims, 1)
+    bz = _cell(pz, origin, bucket, dims, 2)
+    m = int(math.ceil(r / bucket))
+    best = r * r
+    k0 = max(bz - m, 0)
+    k1 = min(bz + m + 1, dims[2])
+    for i in range(max(bx - m, 0), min(bx + m + 1, dims[0])):
+        for j in range(max(by - m, 0), min(by + m + 1, dims[1])):
+            base = (i * dims[1] + j) * dims[2]
+            for q in range(start[base + k0], start[base + k1]):  # the column's buckets k0 .. k1 - 1
+                dx = S[q, 0] - px
+                dy = S[q, 1] - py
+                dz = S[q, 2] - pz
+                d2 = dx * dx + dy * dy + dz * dz
+                if d2 < best:
+                    best = d2
+    return math.sqrt(best)
+
+
+@numba.njit(cache=True)
+def distance_below(px, py, pz, r, occ, start, S, origin, bucket, dims):  # pragma: no cover - jitted
+    """:func:`nearest_in` (the snapshot ``occ, start, S, origin, bucket, dims`` of :func:`point_index`),
     answering ``r`` without a scan where the mask shows no stored point near."""
-    if math.ceil(r / bucket) <= REACH:  # nearest_distance's own scan reach
+    if math.ceil(r / bucket) <= REACH:  # the scan's own reach
         i = _cell(px, origin, bucket, dims, 0)
         j = _cell(py, origin, bucket, dims, 1)
         k = _cell(pz, origin, bucket, dims, 2)
         if occ[i, j, k] == 0:
             return math.sqrt(r * r)
-    return nearest_distance(px, py, pz, r, P, alive, head, nxt, origin, bucket, dims)
+    return nearest_in(px, py, pz, r, start, S, origin, bucket, dims)
 
 
 @numba.njit(cache=True)
-def samples_clear(ax, ay, az, bx, by, bz, fracs, r, work, occ, P, alive, head, nxt, origin, bucket,
+def samples_clear(ax, ay, az, bx, by, bz, fracs, r, work, occ, start, S, origin, bucket,
                   dims):  # pragma: no cover - jitted
     """True if every point ``a + f (b - a)``, ``f`` in ``fracs`` (at most 8), keeps ``r`` from every live point:
     ``distance_below(x, r) >= r`` at each, the same answer, from one scan of their buckets' neighbourhoods
@@ -97,16 +164,15 @@ def samples_clear(ax, ay, az, bx, by, bz, fracs, r, work, occ, P, alive, head, n
         return True
     if r >= bucket - 1e-6:
         for t in range(n):
-            if distance_below(work[t, 0], work[t, 1], work[t, 2], r, occ, P, alive, head, nxt, origin, bucket,
-                              dims) < r:
+            if distance_below(work[t, 0], work[t, 1], work[t, 2], r, occ, start, S, origin, bucket, dims) < r:
                 return False
         return True
     r2 = r * r
     for i in range(max(lo0 - 1, 0), min(hi0 + 2, dims[0])):
         for j in range(max(lo1 - 1, 0), min(hi1 + 2, dims[1])):
             for k in range(max(lo2 - 1, 0), min(hi2 + 2, dims[2])):
-                q = head[i, j, k]
-                if q < 0:
+                b = (i * dims[1] + j) * dims[2] + k
+                if start[b] == start[b + 1]:
                     continue
                 inside = False  # within one bucket of some point's own
                 for t in range(n):
@@ -116,21 +182,19 @@ def samples_clear(ax, ay, az, bx, by, bz, fracs, r, work, occ, P, alive, head, n
                         break
                 if not inside:
                     continue
-                while q >= 0:
-                    if alive[q]:
-                        for t in range(n):
-                            dx = P[q, 0] - work[t, 0]
-                            dy = P[q, 1] - work[t, 1]
-                            dz = P[q, 2] - work[t, 2]
-                            d2 = dx * dx + dy * dy + dz * dz
-                            if d2 < r2 and math.sqrt(d2) < r:
-                                return False
-                    q = nxt[q]
+                for q in range(start[b], start[b + 1]):
+                    for t in range(n):
+                        dx = S[q, 0] - work[t, 0]
+                        dy = S[q, 1] - work[t, 1]
+                        dz = S[q, 2] - work[t, 2]
+                        d2 = dx * dx + dy * dy + dz * dz
+                        if d2 < r2 and math.sqrt(d2) < r:
+                            return False
     return True
 
 
 @numba.njit(cache=True)
-def distances_below(xs, n, r, out, occ, P, alive, head, nxt, origin, bucket, dims):  # pragma: no cover
+def distances_below(xs, n, r, out, occ, start, S, origin, bucket, dims):  # pragma: no cover
     """``out[t] = distance_below(xs[t], r)`` for ``t < n``, bit for bit, from one scan of the buckets around
     all ``n`` points (each visited once; a point's own scan covers the buckets within ``ceil(r / bucket)`` of
     its own, and every point outside them is farther than ``r``).  :func:`samples_clear` is the same pass for a
@@ -152,24 +216,21 @@ def distances_below(xs, n, r, out, occ, P, alive, head, nxt, origin, bucket, dim
             near += 1
     if near > 0 and m * bucket < r + 1e-6:  # too tight to tell the neighbourhoods apart: point by point
         for t in range(n):
-            out[t] = distance_below(xs[t, 0], xs[t, 1], xs[t, 2], r, occ, P, alive, head, nxt, origin, bucket, dims)
+            out[t] = distance_below(xs[t, 0], xs[t, 1], xs[t, 2], r, occ, start, S, origin, bucket, dims)
         return
     if near > 0:
+        k0 = max(lo2 - m, 0)
+        k1 = min(hi2 + m + 1, dims[2])
         for i in range(max(lo0 - m, 0), min(hi0 + m + 1, dims[0])):
             for j in range(max(lo1 - m, 0), min(hi1 + m + 1, dims[1])):
-                for k in range(max(lo2 - m, 0), min(hi2 + m + 1, dims[2])):
-                    q = head[i, j, k]
-                    if q < 0:
-                        continue
-                    while q >= 0:
-                        if alive[q]:
-                            for t in range(n):
-                                dx = P[q, 0] - xs[t, 0]
-                                dy = P[q, 1] - xs[t, 1]
-                                dz = P[q, 2] - xs[t, 2]
-                                d2 = dx * dx + dy * dy + dz * dz
-                                if d2 < out[t]:
-                                    out[t] = d2
-                        q = nxt[q]
+                base = (i * dims[1] + j) * dims[2]
+                for q in range(start[base + k0], start[base + k1]):  # the column's buckets k0 .. k1 - 1
+                    for t in range(n):
+                        dx = S[q, 0] - xs[t, 0]
+                        dy = S[q, 1] - xs[t, 1]
+                        dz = S[q, 2] - xs[t, 2]
+                        d2 = dx * dx + dy * dy + dz * dz
+                        if d2 < out[t]:
+                            out[t] = d2
     for t in range(n):
         out[t] = math.sqrt(out[t])

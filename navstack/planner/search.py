@@ -46,7 +46,7 @@ from navstack.planner.potential import (
     navigation_function,
     wave_value,
 )
-from navstack.planner.proximity import distance_below, distances_below, occupied_near, samples_clear
+from navstack.planner.proximity import distance_below, distances_below, point_index, samples_clear
 
 __all__ = ["NO_PATH", "PARTIAL", "REACHED", "ArmShape", "Plan", "SearchConfig", "search", "still_clear"]
 
@@ -373,38 +373,38 @@ def _chain(line, n, L, count, pts):  # pragma: no cover - jitted
 
 
 @numba.njit(cache=True)
-def _last_link_clear(pts, qx, qy, qz, r, occ, P, alive, head, nxt, origin, bucket, bdims):  # pragma: no cover
+def _last_link_clear(pts, qx, qy, qz, r, occ, start, S, origin, bucket, bdims):  # pragma: no cover
     """The last link, the chord from the first chain point ``pts[0]`` to the tip q, keeps ``r`` from every
     surface point (checked at :data:`_CHORD_FRACTIONS` of it); ``pts[8:24]`` is scratch."""
-    return samples_clear(pts[0, 0], pts[0, 1], pts[0, 2], qx, qy, qz, _CHORD_FRACTIONS, r, pts[8:], occ, P, alive,
-                         head, nxt, origin, bucket, bdims)
+    return samples_clear(pts[0, 0], pts[0, 1], pts[0, 2], qx, qy, qz, _CHORD_FRACTIONS, r, pts[8:], occ, start, S,
+                         origin, bucket, bdims)
 
 
 @numba.njit(cache=True)
-def _flange_clear(pts, r, occ, P, alive, head, nxt, origin, bucket, bdims):  # pragma: no cover - jitted
+def _flange_clear(pts, r, occ, start, S, origin, bucket, bdims):  # pragma: no cover - jitted
     """The flange (chain point 5) and the point one link behind it (6), where the arm begins, keep ``r``."""
     for i in (5, 6):
-        if distance_below(pts[i, 0], pts[i, 1], pts[i, 2], r, occ, P, alive, head, nxt, origin, bucket, bdims) < r:
+        if distance_below(pts[i, 0], pts[i, 1], pts[i, 2], r, occ, start, S, origin, bucket, bdims) < r:
             return False
     return True
 
 
 @numba.njit(cache=True)
-def _arm_shifted_clear(pts, arm_pts, flange, r, occ, P, alive, head, nxt, origin, bucket,
+def _arm_shifted_clear(pts, arm_pts, flange, r, occ, start, S, origin, bucket,
                        bdims):  # pragma: no cover - jitted
     """The arm's axis ``arm_pts`` translated by the flange's displacement (chain point 5 minus ``flange``)
     keeps ``r`` from every surface point: the lathe bed carries the arm along behind the serpentine, in
     about its starting posture."""
     dx, dy, dz = pts[5, 0] - flange[0], pts[5, 1] - flange[1], pts[5, 2] - flange[2]
     for i in range(arm_pts.shape[0]):
-        if distance_below(arm_pts[i, 0] + dx, arm_pts[i, 1] + dy, arm_pts[i, 2] + dz, r, occ, P, alive, head, nxt,
+        if distance_below(arm_pts[i, 0] + dx, arm_pts[i, 1] + dy, arm_pts[i, 2] + dz, r, occ, start, S,
                           origin, bucket, bdims) < r:
             return False
     return True
 
 
 @numba.njit(cache=True)
-def _body_clear(qx, qy, qz, node, NP, NPAR, hist, L, r_link, r_arm, line, pts, occ, P, alive, head, nxt, origin,
+def _body_clear(qx, qy, qz, node, NP, NPAR, hist, L, r_link, r_arm, line, pts, occ, start, S, origin,
                 bucket, bdims, arm):  # pragma: no cover - jitted
     """The body behind the tip at q: the last link (a straight chord, inside the bends of the path) keeps
     ``r_link`` from every surface point, and with ``arm`` the flange (the sixth chord point) and the point
@@ -414,26 +414,26 @@ def _body_clear(qx, qy, qz, node, NP, NPAR, hist, L, r_link, r_arm, line, pts, o
     m = _chain(line, n, L, count, pts)
     if m < count:
         return True
-    if not _last_link_clear(pts, qx, qy, qz, r_link, occ, P, alive, head, nxt, origin, bucket, bdims):
+    if not _last_link_clear(pts, qx, qy, qz, r_link, occ, start, S, origin, bucket, bdims):
         return False
-    return not (arm and r_arm > 0.0) or _flange_clear(pts, r_arm, occ, P, alive, head, nxt, origin, bucket, bdims)
+    return not (arm and r_arm > 0.0) or _flange_clear(pts, r_arm, occ, start, S, origin, bucket, bdims)
 
 
 @numba.njit(cache=True)
-def _arm_clear(qx, qy, qz, node, NP, NPAR, hist, L, arm_pts, flange, r, line, pts, occ, P, alive, head, nxt, origin,
+def _arm_clear(qx, qy, qz, node, NP, NPAR, hist, L, arm_pts, flange, r, line, pts, occ, start, S, origin,
                bucket, bdims):  # pragma: no cover - jitted
     """True if the arm, carried with the flange of the chain behind q (:func:`_arm_shifted_clear`), keeps ``r``
     from every surface point."""
     n = _backward(qx, qy, qz, node, NP, NPAR, hist, 6.5 * L, line)
     if _chain(line, n, L, 6, pts) < 6:
         return True
-    return _arm_shifted_clear(pts, arm_pts, flange, r, occ, P, alive, head, nxt, origin, bucket, bdims)
+    return _arm_shifted_clear(pts, arm_pts, flange, r, occ, start, S, origin, bucket, bdims)
 
 
 @numba.njit(cache=True)
 def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, rep, hist,
                    nav, nav_origin, nav_cell, arm_pts, flange, occ,
-                   P, alive, head, nxt, origin, bucket, bdims, free, fcell, fdims, box_lo, box_hi,
+                   start, S, origin, bucket, bdims, free, fcell, fdims, box_lo, box_hi,
                    NP, NH, NK, NG, NPAR, NKAP, NDIR, NEND, NL):  # pragma: no cover - jitted
     """Hybrid A* (see the module docstring).  Node arrays are preallocated by the caller.
 
@@ -507,7 +507,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
                 continue
             closed[key] = True
             if use_arm and not _arm_clear(px, py, pz, NPAR[node], NP, NPAR, hist, link, arm_pts, flange, arm_reach,
-                                          line, chain_pts, occ, P, alive, head, nxt, origin, bucket, bdims):
+                                          line, chain_pts, occ, start, S, origin, bucket, bdims):
                 continue  # the arm, carried with the flange, would meet a sensed surface
         if k >= n_goals:
             return 0, node, expansions, n_nodes
@@ -529,7 +529,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
             for j in range(1, n_samp + 1):  # the samples, and their distances to the map in one scan
                 samp[j - 1, 0], samp[j - 1, 1], samp[j - 1, 2], _, _, _ = _arc(px, py, pz, hx, hy, hz, nx, ny, nz,
                                                                                kap, j * ds)
-            distances_below(samp, n_samp, c_reach, samp_d, occ, P, alive, head, nxt, origin, bucket, bdims)
+            distances_below(samp, n_samp, c_reach, samp_d, occ, start, S, origin, bucket, bdims)
             for j in range(1, n_samp + 1):
                 s = j * ds
                 qx, qy, qz = samp[j - 1, 0], samp[j - 1, 1], samp[j - 1, 2]
@@ -546,8 +546,8 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
                 # (checked every other sample and at the end; the flange and the arm's start at the end)
                 if j % 2 == 0 or j == n_samp:
                     rb = r_start if length + s < relax + link else rep[0]
-                    if not _body_clear(qx, qy, qz, node, NP, NPAR, hist, link, rb, r_arm, line, chain_pts, occ, P,
-                                       alive, head, nxt, origin, bucket, bdims, j == n_samp):
+                    if not _body_clear(qx, qy, qz, node, NP, NPAR, hist, link, rb, r_arm, line, chain_pts, occ, start,
+                                       S, origin, bucket, bdims, j == n_samp):
                         ok = False
                         break
                 cost += ds * (1.0 + c)
@@ -569,7 +569,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
                 continue
             qx, qy, qz, tx, ty, tz = _arc(px, py, pz, hx, hy, hz, nx, ny, nz, kap, s_end)
             if s_end < step and not _body_clear(qx, qy, qz, node, NP, NPAR, hist, link, rep[0], r_arm, line,
-                                                chain_pts, occ, P, alive, head, nxt, origin, bucket, bdims, True):
+                                                chain_pts, occ, start, S, origin, bucket, bdims, True):
                 continue  # the goal was passed between two body checks: check where the path ends
             tn = math.sqrt(tx * tx + ty * ty + tz * tz)
             tx /= tn
@@ -606,7 +606,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
 
 
 @numba.njit(cache=True)
-def _path_clear(pts, hist, every, link, r_block, r_arm, arm_pts, flange, arm_reach, occ, P, alive, head, nxt, origin,
+def _path_clear(pts, hist, every, link, r_block, r_arm, arm_pts, flange, arm_reach, occ, start, S, origin,
                 bucket, bdims):  # pragma: no cover - jitted
     """True if the tip path ``pts`` keeps ``r_block`` from every surface point at each sample, and the
     body behind it (checked every ``every`` samples, the history ``hist`` behind ``pts[0]``) is clear: the
@@ -616,7 +616,7 @@ def _path_clear(pts, hist, every, link, r_block, r_arm, arm_pts, flange, arm_rea
     line = np.empty((n + hist.shape[0] + 2, 3))
     chain_pts = np.empty((24, 3))  # the chain's points, then scratch
     for i in range(n):
-        if distance_below(pts[i, 0], pts[i, 1], pts[i, 2], r_block, occ, P, alive, head, nxt, origin, bucket,
+        if distance_below(pts[i, 0], pts[i, 1], pts[i, 2], r_block, occ, start, S, origin, bucket,
                           bdims) < r_block:
             return False
     for i in range(every, n, every):
@@ -629,14 +629,14 @@ def _path_clear(pts, hist, every, link, r_block, r_arm, arm_pts, flange, arm_rea
             m += 1
         if _chain(line, m, link, 7, chain_pts) < 7:
             continue
-        if not _last_link_clear(chain_pts, pts[i, 0], pts[i, 1], pts[i, 2], r_block, occ, P, alive, head, nxt,
+        if not _last_link_clear(chain_pts, pts[i, 0], pts[i, 1], pts[i, 2], r_block, occ, start, S,
                                 origin, bucket, bdims):
             return False
         if arm_pts.shape[0] > 0:
-            if not _arm_shifted_clear(chain_pts, arm_pts, flange, arm_reach, occ, P, alive, head, nxt, origin,
+            if not _arm_shifted_clear(chain_pts, arm_pts, flange, arm_reach, occ, start, S, origin,
                                       bucket, bdims):
                 return False
-        elif not _flange_clear(chain_pts, r_arm, occ, P, alive, head, nxt, origin, bucket, bdims):
+        elif not _flange_clear(chain_pts, r_arm, occ, start, S, origin, bucket, bdims):
             return False
     return True
 
@@ -655,7 +655,7 @@ def still_clear(smap: SensedMap, plan: Plan, s: float, history: ArrayLike, confi
     arm_pts, flange, reach = _arm_arrays(arm, config)
     return bool(_path_clear(pts, hist, every, config.link_length, repulsion.r_block,
                             min(config.arm_clearance, smap.config.bucket), arm_pts, flange, reach,
-                            occupied_near(smap.head), *smap.arrays()))
+                            *point_index(smap)))
 
 
 # ------------------------------------------------------------------------------------------ driver
@@ -740,7 +740,7 @@ def search(smap: SensedMap, start: ArrayLike, heading: ArrayLike, goals: ArrayLi
     box_hi = smap.origin + smap.free_dims * fcell - 1e-9
     status, last, expansions, _ = _search_kernel(
         p0, h0, k0, G, reach, rest, kap, dc, ds, cfg, rep, hist, nav.wave, nav.origin, nav.cell, arm_pts, flange,
-        occupied_near(smap.head), *smap.arrays(), free, fcell, fdims,
+        *point_index(smap), free, fcell, fdims,
         box_lo, box_hi, buf.P, buf.H, buf.K, buf.G, buf.PAR, buf.KAP, buf.DIR, buf.END, buf.L)
     if status == PARTIAL and last == 0:
         status = NO_PATH  # no state closer to the goal than the start: no way on
