@@ -62,24 +62,7 @@ def test_point_index_holds_each_live_point_once_in_its_bucket(seed):
 
 
 @pytest.mark.parametrize("seed", range(3))
-def test_nearest_in_is_the_map_lists_scan_bit_for_bit(seed):
-    smap = _random_map(seed)
-    index = point_index(smap)
-    rng = np.random.default_rng(50 + seed)
-    live = smap.points
-    queries = np.concatenate([rng.uniform(-0.5, 1.0, size=(400, 3)),
-                              live[rng.integers(0, len(live), 400)] + 0.03 * rng.normal(size=(400, 3))])
-    below = 0
-    for r in (0.01, 0.035, 0.04, 0.075, 0.1, 0.2):
-        for q in queries:
-            got = nearest_in(q[0], q[1], q[2], r, *index[1:])
-            assert got == nearest_distance(q[0], q[1], q[2], r, *smap.arrays()), (q, r)
-            below += got < r
-    assert below > 1000
-
-
-@pytest.mark.parametrize("seed", range(3))
-def test_distance_below_equals_the_full_scan_bit_for_bit(seed):
+def test_distance_below_and_nearest_in_equal_the_map_lists_scan_bit_for_bit(seed):
     smap = _random_map(seed)
     arrays = smap.arrays()
     index = point_index(smap)
@@ -95,13 +78,18 @@ def test_distance_below_equals_the_full_scan_bit_for_bit(seed):
     cells = np.clip(np.floor((queries - smap.origin) / bucket).astype(int), 0, smap.bucket_dims - 1)
     empty = occ[tuple(cells.T)] == 0
     assert 200 < empty.sum() < len(queries) - 200  # both ways are exercised
+    below = 0
     for r in (0.01, 0.035, bucket, 0.075, REACH * bucket, REACH * bucket + 1e-3, 0.1, 0.115, 0.2):
         for q in queries:
             fast = distance_below(q[0], q[1], q[2], r, *index)
             full = nearest_distance(q[0], q[1], q[2], r, *arrays)
             assert fast == full, (q, r, fast, full)
+            scan = nearest_in(q[0], q[1], q[2], r, *index[1:])  # the snapshot's scan, without the mask
+            assert scan == full, (q, r, scan, full)
+            below += scan < r
             true = float(np.min(np.linalg.norm(live - q, axis=1)))
             assert fast == pytest.approx(min(true, r), abs=1e-12) or true >= r
+    assert below > 1000
 
 
 @pytest.mark.parametrize("seed", range(3))

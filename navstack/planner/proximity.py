@@ -98,6 +98,19 @@ def point_index(smap: SensedMap) -> tuple:
     return occupied_near(head), start, S, origin, bucket, dims
 
 
+@numba.njit(cache=True, inline="always")
+def _run_min(S, a, b, x, y, z, best):  # pragma: no cover - jitted
+    """The smallest of ``best`` and the squared distances [m^2] from (x, y, z) to the points ``S[a:b]``."""
+    for q in range(a, b):
+        dx = S[q, 0] - x
+        dy = S[q, 1] - y
+        dz = S[q, 2] - z
+        d2 = dx * dx + dy * dy + dz * dz
+        if d2 < best:
+            best = d2
+    return best
+
+
 @numba.njit(cache=True)
 def nearest_in(px, py, pz, r, start, S, origin, bucket, dims):  # pragma: no cover - jitted
     """:func:`navstack.planner.map.nearest_distance` over the snapshot of :func:`point_index`: the distance [m]
@@ -112,14 +125,8 @@ def nearest_in(px, py, pz, r, start, S, origin, bucket, dims):  # pragma: no cov
     k1 = min(bz + m + 1, dims[2])
     for i in range(max(bx - m, 0), min(bx + m + 1, dims[0])):
         for j in range(max(by - m, 0), min(by + m + 1, dims[1])):
-            base = (i * dims[1] + j) * dims[2]
-            for q in range(start[base + k0], start[base + k1]):  # the column's buckets k0 .. k1 - 1
-                dx = S[q, 0] - px
-                dy = S[q, 1] - py
-                dz = S[q, 2] - pz
-                d2 = dx * dx + dy * dy + dz * dz
-                if d2 < best:
-                    best = d2
+            base = (i * dims[1] + j) * dims[2]  # the column's buckets k0 .. k1 - 1
+            best = _run_min(S, start[base + k0], start[base + k1], px, py, pz, best)
     return math.sqrt(best)
 
 
@@ -223,14 +230,8 @@ def distances_below(xs, n, r, out, occ, start, S, origin, bucket, dims):  # prag
         k1 = min(hi2 + m + 1, dims[2])
         for i in range(max(lo0 - m, 0), min(hi0 + m + 1, dims[0])):
             for j in range(max(lo1 - m, 0), min(hi1 + m + 1, dims[1])):
-                base = (i * dims[1] + j) * dims[2]
-                for q in range(start[base + k0], start[base + k1]):  # the column's buckets k0 .. k1 - 1
-                    for t in range(n):
-                        dx = S[q, 0] - xs[t, 0]
-                        dy = S[q, 1] - xs[t, 1]
-                        dz = S[q, 2] - xs[t, 2]
-                        d2 = dx * dx + dy * dy + dz * dz
-                        if d2 < out[t]:
-                            out[t] = d2
+                base = (i * dims[1] + j) * dims[2]  # the column's buckets k0 .. k1 - 1
+                for t in range(n):
+                    out[t] = _run_min(S, start[base + k0], start[base + k1], xs[t, 0], xs[t, 1], xs[t, 2], out[t])
     for t in range(n):
         out[t] = math.sqrt(out[t])
