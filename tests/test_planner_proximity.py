@@ -100,7 +100,6 @@ def test_samples_clear_is_distance_below_at_every_sample(seed):
     index = point_index(smap)
     rng = np.random.default_rng(200 + seed)
     live = smap.points
-    work = np.empty((16, 3))
     bucket = smap.config.bucket
     outcomes = {True: 0, False: 0}
     for r in (0.01, 0.028, 0.035, bucket - 2e-6, bucket, 0.05):
@@ -110,7 +109,7 @@ def test_samples_clear_is_distance_below_at_every_sample(seed):
             d = rng.normal(size=3)
             b = a + rng.uniform(0.02, 0.25) * d / np.linalg.norm(d)
             fracs = (np.array([1, 2, 3, 4, 5]) / 6.0 if t % 2 else np.sort(rng.random(rng.integers(1, 9))))
-            got = samples_clear(*a, *b, fracs, r, work, *index)
+            got = samples_clear(*a, *b, fracs, r, *index)
             want = all(distance_below(*(a + f * (b - a)), r, *index) >= r for f in fracs)
             assert got == want, (a, b, fracs, r)
             outcomes[got] += 1
@@ -139,3 +138,48 @@ def test_distances_below_is_distance_below_bit_for_bit(seed):
             assert out[:n].tolist() == want, (xs, r)
             below += sum(w < r for w in want)
     assert below > 500
+
+
+def _plate_map(seed: int) -> SensedMap:
+    """Sensed-like surfaces: three tilted plates of points 1 cm apart with shadows behind them, one reaching
+    beyond the map box; the columns' runs are long (the search's narrowing of a run is taken)."""
+    rng = np.random.default_rng(seed)
+    smap = SensedMap([0.0, 0.0, 0.0], [0.5, 0.4, 0.3], MapConfig(margin=0.1))
+    g = np.arange(-0.15, 0.15, 0.01)
+    for c in (rng.uniform(0.0, 0.5, 3), rng.uniform(0.0, 0.5, 3), np.array([0.62, 0.2, 0.15])):
+        n = rng.normal(size=3)
+        n /= np.linalg.norm(n)
+        u = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+        u /= np.linalg.norm(u)
+        w = np.cross(n, u)
+        pts = c + g[:, None, None] * u + g[None, :, None] * w
+        pts = pts.reshape(-1, 3) + 0.002 * rng.normal(size=(len(g) ** 2, 3))
+        smap.add_points(pts)
+        smap.add_points(pts - 0.015 * n, shadow=True)
+    return smap
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_distances_below_is_distance_below_bit_for_bit_on_dense_surfaces(seed):
+    from navstack.planner.proximity import _PRUNE_RUN, distances_below
+
+    smap = _plate_map(seed)
+    index = point_index(smap)
+    start, dims = index[1], index[5]
+    runs = start[5:] - start[:-5]  # points in five buckets of one column (or straddling two)
+    assert runs.max() > 4 * _PRUNE_RUN  # the narrowing is taken
+    rng = np.random.default_rng(400 + seed)
+    live = smap.points
+    out = np.empty(8)
+    below = 0
+    for r in (0.035, 0.075, 0.08):
+        for _ in range(300):
+            p = live[rng.integers(0, len(live))] + 0.04 * rng.normal(size=3)
+            d = rng.normal(size=3)
+            n = int(rng.integers(1, 9))
+            xs = p + np.outer(np.arange(n), 0.01 * d / np.linalg.norm(d))
+            distances_below(xs, n, r, out, *index)
+            want = [distance_below(*x, r, *index) for x in xs]
+            assert out[:n].tolist() == want, (xs, r)
+            below += sum(w < r for w in want)
+    assert below > 1500

@@ -375,9 +375,9 @@ def _chain(line, n, L, count, pts):  # pragma: no cover - jitted
 @numba.njit(cache=True)
 def _last_link_clear(pts, qx, qy, qz, r, occ, start, S, origin, bucket, bdims):  # pragma: no cover
     """The last link, the chord from the first chain point ``pts[0]`` to the tip q, keeps ``r`` from every
-    surface point (checked at :data:`_CHORD_FRACTIONS` of it); ``pts[8:24]`` is scratch."""
-    return samples_clear(pts[0, 0], pts[0, 1], pts[0, 2], qx, qy, qz, _CHORD_FRACTIONS, r, pts[8:], occ, start, S,
-                         origin, bucket, bdims)
+    surface point (checked at :data:`_CHORD_FRACTIONS` of it)."""
+    return samples_clear(pts[0, 0], pts[0, 1], pts[0, 2], qx, qy, qz, _CHORD_FRACTIONS, r, occ, start, S, origin,
+                         bucket, bdims)
 
 
 @numba.njit(cache=True)
@@ -461,7 +461,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
     r_arm = 0.0 if use_arm else cfg[13]  # the flange and the point behind it, only without the arm's shape
     arm_reach = cfg[16]
     line = np.empty((512, 3))
-    chain_pts = np.empty((24, 3))  # the chain's points, then scratch
+    chain_pts = np.empty((8, 3))  # the chain's points
     samp = np.empty((n_samp, 3))
     samp_d = np.empty(n_samp)
     c_reach = cost_reach(rep)
@@ -614,7 +614,7 @@ def _path_clear(pts, hist, every, link, r_block, r_arm, arm_pts, flange, arm_rea
     link behind it, ``r_arm``); the same checks as the search's."""
     n = pts.shape[0]
     line = np.empty((n + hist.shape[0] + 2, 3))
-    chain_pts = np.empty((24, 3))  # the chain's points, then scratch
+    chain_pts = np.empty((8, 3))  # the chain's points
     for i in range(n):
         if distance_below(pts[i, 0], pts[i, 1], pts[i, 2], r_block, occ, start, S, origin, bucket,
                           bdims) < r_block:
