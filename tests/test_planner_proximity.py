@@ -13,14 +13,14 @@ import numpy as np
 import pytest
 
 from navstack.planner.map import MapConfig, SensedMap, nearest_distance
-from navstack.planner.proximity import REACH, distance_below, nearest_in, occupied_near, point_index
+from navstack.planner.proximity import ADJACENT, REACH, distance_below, nearest_in, occupied_near, point_index
 
 
-def _brute_mask(head: np.ndarray) -> np.ndarray:
+def _brute_mask(head: np.ndarray, reach: int = REACH) -> np.ndarray:
     occ = head >= 0
     out = np.zeros_like(occ)
     for i, j, k in np.argwhere(occ):
-        out[max(i - REACH, 0): i + REACH + 1, max(j - REACH, 0): j + REACH + 1, max(k - REACH, 0): k + REACH + 1] = True
+        out[max(i - reach, 0): i + reach + 1, max(j - reach, 0): j + reach + 1, max(k - reach, 0): k + reach + 1] = True
     return out
 
 
@@ -29,11 +29,14 @@ def test_occupied_near_is_the_dilation_of_the_filled_buckets(seed):
     rng = np.random.default_rng(seed)
     head = np.where(rng.random((9, 7, 11)) < 0.02 * (seed + 1), 5, -1).astype(np.int64)
     head[0, 0, 0] = 3 if seed % 2 else -1  # a corner bucket
-    np.testing.assert_array_equal(occupied_near(head).astype(bool), _brute_mask(head))
+    occ = occupied_near(head >= 0)
+    np.testing.assert_array_equal(occ & 1 != 0, _brute_mask(head))
+    np.testing.assert_array_equal(occ & ADJACENT != 0, _brute_mask(head, 1))
+    assert set(np.unique(occ)) <= {0, 1, 1 + ADJACENT}  # the neighbourhood's bit only within REACH's
 
 
 def test_occupied_near_of_an_empty_map_is_empty():
-    assert not occupied_near(np.full((4, 5, 6), -1, dtype=np.int64)).any()
+    assert not occupied_near(np.zeros((4, 5, 6), dtype=np.bool_)).any()
 
 
 def _random_map(seed: int) -> SensedMap:
@@ -50,7 +53,10 @@ def _random_map(seed: int) -> SensedMap:
 def test_point_index_holds_each_live_point_once_in_its_bucket(seed):
     smap = _random_map(seed)
     occ, start, S, origin, bucket, dims = point_index(smap)
-    np.testing.assert_array_equal(occ, occupied_near(smap.head))
+    live_buckets = np.zeros(smap.head.shape, dtype=bool)  # the buckets of the live points (not removed ones)
+    cells = np.clip(np.floor((smap.points - origin) / bucket).astype(int), 0, dims - 1)
+    live_buckets[tuple(cells.T)] = True
+    np.testing.assert_array_equal(occ, occupied_near(live_buckets))
     assert start[0] == 0 and np.all(np.diff(start) >= 0) and start[-1] == len(S)
     live = smap.points
     assert len(live) < smap.n_slots  # removed points are left out
@@ -165,7 +171,7 @@ def test_distances_below_is_distance_below_bit_for_bit_on_dense_surfaces(seed):
 
     smap = _plate_map(seed)
     index = point_index(smap)
-    start, dims = index[1], index[5]
+    start = index[1]
     runs = start[5:] - start[:-5]  # points in five buckets of one column (or straddling two)
     assert runs.max() > 4 * _PRUNE_RUN  # the narrowing is taken
     rng = np.random.default_rng(400 + seed)

@@ -2,14 +2,17 @@
 
 The search asks :func:`navstack.planner.map.nearest_distance` a hundred times per expanded state,
 mostly in open space, where it scans 27 or 125 empty buckets to answer "nothing within ``r``".
-:func:`occupied_near` marks, once per search, every bucket with a stored point (live or removed)
-within ``REACH`` buckets in each axis; :func:`distance_below` answers ``r`` at once for a query whose
-bucket is unmarked and scans otherwise (:func:`nearest_in`).  The scan of ``nearest_distance`` never
-leaves that neighbourhood for ``r <= REACH * bucket``, so the answer is the same, bit for bit.
+:func:`occupied_near` marks, once per search, every bucket with a live point
+within ``REACH`` buckets in each axis, and apart every bucket with one in its 3 x 3 x 3 neighbourhood;
+:func:`distance_below` answers ``r`` at once for a query whose bucket is unmarked and scans otherwise
+(:func:`nearest_in`).  The scan of ``nearest_distance`` never leaves that neighbourhood for ``r <= REACH *
+bucket``, so the answer is the same, bit for bit.
 
 Queries come in groups, the samples of one motion primitive a centimetre apart and the points along the
-last link: :func:`distances_below` and :func:`samples_clear` answer a group from one pass over the
-buckets around it (each bucket walked once, not once per point), with the same answers.
+last link: :func:`distances_below` answers a group from one pass over the buckets around it (each bucket
+walked once, not once per point, a long run of them cut to the heights that can hold a nearer point), and
+:func:`samples_clear` checks the points along a link, a bucket's width or less from surfaces, each in its
+own neighbourhood; the same answers.
 
 A search asks its questions of a map that does not change while it runs, so it asks them of a snapshot,
 :func:`point_index`: the live points copied out bucket by bucket, in the buckets' order (compressed
@@ -28,16 +31,21 @@ from numpy.typing import NDArray
 
 from navstack.planner.map import SensedMap, _cell
 
-__all__ = ["REACH", "distance_below", "distances_below", "nearest_in", "occupied_near", "point_index",
-           "samples_clear"]
+__all__ = ["ADJACENT", "REACH", "distance_below", "distances_below", "filled_buckets", "nearest_in", "occupied_near",
+           "point_index", "samples_clear"]
 
 REACH = 2
 """Buckets of neighbourhood the mask covers (queries up to ``REACH * bucket`` use it)."""
 
 
+ADJACENT = 2
+"""The mask's second bit: a bucket within one bucket of the cell holds a point slot (its 3 x 3 x 3 buckets, what a
+query closer than a bucket scans)."""
+
+
 @numba.njit(cache=True)
-def _dilate(src, dst, axis):  # pragma: no cover - jitted
-    """``dst`` = 1 within ``REACH`` cells along ``axis`` of every nonzero cell of ``src`` (``dst`` zeroed first)."""
+def _dilate(src, dst, axis, reach):  # pragma: no cover - jitted
+    """``dst`` = 1 within ``reach`` cells along ``axis`` of every nonzero cell of ``src`` (``dst`` zeroed first)."""
     dst[:] = 0
     nx, ny, nz = src.shape
     di, dj, dk = int(axis == 0), int(axis == 1), int(axis == 2)
@@ -45,21 +53,29 @@ def _dilate(src, dst, axis):  # pragma: no cover - jitted
         for j in range(ny):
             for k in range(nz):
                 if src[i, j, k]:
-                    for t in range(-REACH, REACH + 1):
+                    for t in range(-reach, reach + 1):
                         ii, jj, kk = i + t * di, j + t * dj, k + t * dk
                         if 0 <= ii < nx and 0 <= jj < ny and 0 <= kk < nz:
                             dst[ii, jj, kk] = 1
 
 
 @numba.njit(cache=True)
-def occupied_near(head: NDArray[np.int64]) -> NDArray[np.uint8]:  # pragma: no cover - jitted
-    """1 where a bucket within ``REACH`` (Chebyshev, in buckets) of the cell holds a point slot, else 0: the
-    filled buckets dilated along x, then y, then z."""
-    a = (head >= 0).astype(np.uint8)
+def occupied_near(filled: NDArray[np.bool_]) -> NDArray[np.uint8]:  # pragma: no cover - jitted
+    """Per bucket: 1 if a bucket within ``REACH`` (Chebyshev, in buckets) of it is ``filled``, plus
+    :data:`ADJACENT` if one within a single bucket is; else 0.  The filled buckets dilated by one along x,
+    then y, then z, and that again by ``REACH - 1`` (a box dilated twice is the larger box)."""
+    a = filled.astype(np.uint8)
     b = np.empty_like(a)
-    _dilate(a, b, 0)
-    _dilate(b, a, 1)
-    _dilate(a, b, 2)
+    _dilate(a, b, 0, 1)
+    _dilate(b, a, 1, 1)
+    _dilate(a, b, 2, 1)  # b: within one bucket
+    c = np.empty_like(a)
+    _dilate(b, a, 0, REACH - 1)
+    _dilate(a, c, 1, REACH - 1)
+    _dilate(c, a, 2, REACH - 1)  # a: within REACH
+    fa, fb = a.reshape(a.size), b.reshape(b.size)
+    for q in range(fa.size):
+        fb[q] = fa[q] + ADJACENT * fb[q]
     return b
 
 
@@ -92,10 +108,16 @@ def _rows(P, alive, head, nxt):  # pragma: no cover - jitted
 
 def point_index(smap: SensedMap) -> tuple:
     """A snapshot of ``smap`` for the proximity kernels: ``(occ, start, S, origin, bucket, bucket_dims)``
-    (:func:`occupied_near`'s mask, the live points in bucket order); valid until the map changes."""
+    (:func:`occupied_near`'s mask of the buckets holding live points, the live points in bucket order); valid
+    until the map changes."""
     P, alive, head, nxt, origin, bucket, dims = smap.arrays()
     start, S = _rows(P, alive, head, nxt)
-    return occupied_near(head), start, S, origin, bucket, dims
+    return occupied_near(filled_buckets(start, head.shape)), start, S, origin, bucket, dims
+
+
+def filled_buckets(start: NDArray[np.int64], shape: tuple) -> NDArray[np.bool_]:
+    """Which buckets of the snapshot (:func:`point_index`'s ``start``, buckets of ``shape``) hold a point."""
+    return (start[1:] != start[:-1]).reshape(shape)
 
 
 _SLACK = 1e-9
@@ -199,7 +221,8 @@ def samples_clear(ax, ay, az, bx, by, bz, fracs, r, occ, start, S, origin, bucke
     """True if every point ``a + f (b - a)``, ``f`` in ``fracs``, keeps ``r`` from every live point:
     ``distance_below(x, r) >= r`` at each, the same answer.  For ``r`` under a bucket each point's scan is
     one run of points per column of its 3 x 3 x 3 buckets (a point within ``r`` lies in a neighbouring
-    bucket), with a bucket whose mask shows nothing near skipped; for larger ``r``, :func:`distance_below`."""
+    bucket), skipped where the mask shows none of them holds a point (:data:`ADJACENT`); for larger ``r``,
+    :func:`distance_below`."""
     n = fracs.shape[0]
     wide = r >= bucket - 1e-6
     r2 = r * r
@@ -213,8 +236,8 @@ def samples_clear(ax, ay, az, bx, by, bz, fracs, r, occ, start, S, origin, bucke
         i = _cell(x, origin, bucket, dims, 0)
         j = _cell(y, origin, bucket, dims, 1)
         k = _cell(z, origin, bucket, dims, 2)
-        if occ[i, j, k] == 0:
-            continue
+        if occ[i, j, k] & ADJACENT == 0:
+            continue  # its 3 x 3 x 3 buckets hold no point
         k0 = max(k - 1, 0)
         k1 = min(k + 2, dims[2])
         for ii in range(max(i - 1, 0), min(i + 2, dims[0])):
