@@ -216,17 +216,43 @@ def _basis(hx, hy, hz):  # pragma: no cover - jitted
 
 
 @numba.njit(cache=True, inline="always")
+def _arc_terms(kappa, s):  # pragma: no cover - jitted
+    """The terms of :func:`_arc` that depend on the curvature and the length alone."""
+    a = kappa * s
+    return math.sin(a) / kappa, (1.0 - math.cos(a)) / kappa, math.cos(a), math.sin(a)
+
+
+@numba.njit(cache=True, inline="always")
+def _arc_from(px, py, pz, hx, hy, hz, nx, ny, nz, kappa, s, sa, ca, c, sn):  # pragma: no cover - jitted
+    """:func:`_arc` given its terms ``sa, ca, c, sn`` = :func:`_arc_terms` (kappa, s)."""
+    if kappa < 1e-9:
+        return px + s * hx, py + s * hy, pz + s * hz, hx, hy, hz
+    return (px + sa * hx + ca * nx, py + sa * hy + ca * ny, pz + sa * hz + ca * nz,
+            c * hx + sn * nx, c * hy + sn * ny, c * hz + sn * nz)
+
+
+@numba.njit(cache=True, inline="always")
 def _arc(px, py, pz, hx, hy, hz, nx, ny, nz, kappa, s):  # pragma: no cover - jitted
     """Position and heading after arc length ``s`` at curvature ``kappa`` turning towards unit ``n``."""
     if kappa < 1e-9:
         return px + s * hx, py + s * hy, pz + s * hz, hx, hy, hz
-    a = kappa * s
-    sa = math.sin(a) / kappa
-    ca = (1.0 - math.cos(a)) / kappa
-    c = math.cos(a)
-    sn = math.sin(a)
-    return (px + sa * hx + ca * nx, py + sa * hy + ca * ny, pz + sa * hz + ca * nz,
-            c * hx + sn * nx, c * hy + sn * ny, c * hz + sn * nz)
+    sa, ca, c, sn = _arc_terms(kappa, s)
+    return _arc_from(px, py, pz, hx, hy, hz, nx, ny, nz, kappa, s, sa, ca, c, sn)
+
+
+@numba.njit(cache=True)
+def _arc_table(kappas, step, n_samp):  # pragma: no cover - jitted
+    """Per primitive ``m``: ``[s, sa, ca, c, sn]`` of :func:`_arc` at ``s = j * step / n_samp`` (row j, 1 .. n_samp,
+    the samples) and at ``s = step`` (row 0, the end): the search's sines and cosines, once per search."""
+    ds = step / n_samp
+    out = np.zeros((kappas.shape[0], n_samp + 1, 5))
+    for m in range(kappas.shape[0]):
+        for j in range(n_samp + 1):
+            s = step if j == 0 else j * ds
+            out[m, j, 0] = s
+            if kappas[m] >= 1e-9:
+                out[m, j, 1], out[m, j, 2], out[m, j, 3], out[m, j, 4] = _arc_terms(kappas[m], s)
+    return out
 
 
 @numba.njit(cache=True)
@@ -495,6 +521,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
     best_h = h_start
     expansions = 0
     n_prims = kappas.shape[0]
+    arcs = _arc_table(kappas, step, n_samp)
     while len(heap) > 0:
         f, node = heapq.heappop(heap)
         px, py, pz = NP[node, 0], NP[node, 1], NP[node, 2]
@@ -526,9 +553,11 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
             s_end = step
             ds = step / n_samp
             length = NL[node]
+            j_end = 0  # the row of arcs at s_end
             for j in range(1, n_samp + 1):  # the samples, and their distances to the map in one scan
-                samp[j - 1, 0], samp[j - 1, 1], samp[j - 1, 2], _, _, _ = _arc(px, py, pz, hx, hy, hz, nx, ny, nz,
-                                                                               kap, j * ds)
+                a = arcs[m, j]
+                samp[j - 1, 0], samp[j - 1, 1], samp[j - 1, 2], _, _, _ = _arc_from(px, py, pz, hx, hy, hz, nx, ny, nz,
+                                                                                    kap, a[0], a[1], a[2], a[3], a[4])
             distances_below(samp, n_samp, c_reach, samp_d, occ, start, S, origin, bucket, bdims)
             for j in range(1, n_samp + 1):
                 s = j * ds
@@ -561,13 +590,15 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
                         break
                 if kk >= n_goals:
                     s_end = s
+                    j_end = j
                     break
             if not ok:
                 continue
             g2 = g + cost + w_turn * step * kap / kappa_max
             if length + s_end > max_len:
                 continue
-            qx, qy, qz, tx, ty, tz = _arc(px, py, pz, hx, hy, hz, nx, ny, nz, kap, s_end)
+            a = arcs[m, j_end]
+            qx, qy, qz, tx, ty, tz = _arc_from(px, py, pz, hx, hy, hz, nx, ny, nz, kap, s_end, a[1], a[2], a[3], a[4])
             if s_end < step and not _body_clear(qx, qy, qz, node, NP, NPAR, hist, link, rep[0], r_arm, line,
                                                 chain_pts, occ, start, S, origin, bucket, bdims, True):
                 continue  # the goal was passed between two body checks: check where the path ends
