@@ -28,6 +28,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from navstack.jit import kernel
 from navstack.planner.proximity import distance_below
 
 __all__ = ["Repulsion", "cost_rate"]
@@ -79,7 +80,7 @@ class Repulsion:
                          self.w_unseen_surface, self.w_unseen])
 
 
-@numba.njit(cache=True)
+@kernel
 def cost_rate(px, py, pz, r_block, prm, occ, start, S, origin, bucket, bdims, free, fcell,
               fdims):  # pragma: no cover - jitted
     """Cost per metre of path at (px, py, pz), or ``BLOCKED`` (-1); ``r_block`` may be relaxed by the caller.
@@ -97,7 +98,7 @@ def cost_reach(prm):  # pragma: no cover - jitted
     return prm[1] if prm[1] > prm[3] else prm[3]
 
 
-@numba.njit(cache=True)
+@kernel
 def cost_at(d, px, py, pz, r_block, prm, origin, free, fcell, fdims):  # pragma: no cover - jitted
     """:func:`cost_rate` at (px, py, pz) given ``d``, its distance to the nearest surface point up to
     :func:`cost_reach` (``distance_below``)."""
@@ -173,9 +174,14 @@ class NavigationFunction:
         return float(wave_value(self._wave, int(idx[0]), int(idx[1]), int(idx[2])))
 
 
-@numba.njit(cache=True)
+@kernel
 def _rasterize(P, alive, n, origin, cell, dims, radius, out, value):  # pragma: no cover - jitted
-    """Set ``out`` to ``value`` at every cell whose centre is within ``radius`` of a live point."""
+    """Set ``out`` to ``value`` at every cell whose centre is within ``radius`` of a live point.
+
+    Each cell is tested as ``x * x + y * y + z * z <= radius ** 2`` (offsets from the point).  A row or column
+    whose partial sum already exceeds it is skipped (adding squares never lowers a float sum), and a column's
+    cells that pass are consecutive (the offset grows monotonically along it), so its scan stops at the first
+    cell past them: the same cells as testing every one in the cube around the point."""
     m = int(math.ceil(radius / cell)) + 1
     r2 = radius * radius
     for q in range(n):
@@ -186,12 +192,22 @@ def _rasterize(P, alive, n, origin, cell, dims, radius, out, value):  # pragma: 
         ck = int(math.floor((P[q, 2] - origin[2]) / cell))
         for i in range(max(ci - m, 0), min(ci + m + 1, dims[0])):
             x = origin[0] + (i + 0.5) * cell - P[q, 0]
+            xx = x * x
+            if xx > r2:
+                continue
             for j in range(max(cj - m, 0), min(cj + m + 1, dims[1])):
                 y = origin[1] + (j + 0.5) * cell - P[q, 1]
+                s = xx + y * y
+                if s > r2:
+                    continue
+                inside = False
                 for k in range(max(ck - m, 0), min(ck + m + 1, dims[2])):
                     z = origin[2] + (k + 0.5) * cell - P[q, 2]
-                    if x * x + y * y + z * z <= r2:
+                    if s + z * z <= r2:
                         out[i, j, k] = value
+                        inside = True
+                    elif inside:
+                        break
 
 
 @numba.njit(cache=True, inline="always")
@@ -259,7 +275,7 @@ def _done_state(values: NDArray[np.float64]) -> tuple:
     return state
 
 
-@numba.njit(cache=True)
+@kernel
 def _wave_seed(wave, goal, reach, origin, cell):  # pragma: no cover - jitted
     """Start the wavefront: every value ``inf`` but the cells within ``reach`` of ``goal`` (0, queued)."""
     cost, flat, keys, cells, pos, heap, _ = wave
@@ -287,7 +303,7 @@ def _wave_seed(wave, goal, reach, origin, cell):  # pragma: no cover - jitted
     heap[0] = n
 
 
-@numba.njit(cache=True)
+@kernel
 def _wave_settle(wave, target):  # pragma: no cover - jitted
     """Run the wavefront on until cell ``target`` (flat index) is settled or nothing is left (``target < 0``:
     to the end).  An indexed binary heap (each cell at most once, its key lowered in place); the values are the

@@ -29,6 +29,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from navstack.jit import kernel
 from navstack.planner.map import SensedMap, _cell
 
 __all__ = ["ADJACENT", "REACH", "distance_below", "distances_below", "filled_buckets", "nearest_in", "occupied_near",
@@ -39,44 +40,56 @@ REACH = 2
 
 
 ADJACENT = 2
-"""The mask's second bit: a bucket within one bucket of the cell holds a point slot (its 3 x 3 x 3 buckets, what a
-query closer than a bucket scans)."""
+"""The mask's second bit (``1 << 1``): a bucket within one bucket of the cell holds a point slot (its 3 x 3 x 3
+buckets, what a query closer than a bucket scans)."""
 
 
 @numba.njit(cache=True)
-def _dilate(src, dst, axis, reach):  # pragma: no cover - jitted
-    """``dst`` = 1 within ``reach`` cells along ``axis`` of every nonzero cell of ``src`` (``dst`` zeroed first)."""
-    dst[:] = 0
+def _dilate1(src, dst, axis):  # pragma: no cover - jitted
+    """``dst`` = ``src`` or-ed with its neighbours one cell either way along ``axis`` (clipped at the faces): a
+    gather with the innermost loop over contiguous cells, whatever the axis."""
     nx, ny, nz = src.shape
-    di, dj, dk = int(axis == 0), int(axis == 1), int(axis == 2)
     for i in range(nx):
         for j in range(ny):
+            if axis == 2:
+                dst[i, j, 0] = src[i, j, 0] | src[i, j, min(1, nz - 1)]
+                for k in range(1, nz - 1):
+                    dst[i, j, k] = src[i, j, k - 1] | src[i, j, k] | src[i, j, k + 1]
+                if nz > 1:
+                    dst[i, j, nz - 1] = src[i, j, nz - 2] | src[i, j, nz - 1]
+                continue
+            if axis == 0:
+                a, b = src[max(i - 1, 0), j], src[min(i + 1, nx - 1), j]
+            else:
+                a, b = src[i, max(j - 1, 0)], src[i, min(j + 1, ny - 1)]
+            c = src[i, j]
+            d = dst[i, j]
             for k in range(nz):
-                if src[i, j, k]:
-                    for t in range(-reach, reach + 1):
-                        ii, jj, kk = i + t * di, j + t * dj, k + t * dk
-                        if 0 <= ii < nx and 0 <= jj < ny and 0 <= kk < nz:
-                            dst[ii, jj, kk] = 1
+                d[k] = a[k] | c[k] | b[k]
 
 
 @numba.njit(cache=True)
 def occupied_near(filled: NDArray[np.bool_]) -> NDArray[np.uint8]:  # pragma: no cover - jitted
     """Per bucket: 1 if a bucket within ``REACH`` (Chebyshev, in buckets) of it is ``filled``, plus
     :data:`ADJACENT` if one within a single bucket is; else 0.  The filled buckets dilated by one along x,
-    then y, then z, and that again by ``REACH - 1`` (a box dilated twice is the larger box)."""
+    then y, then z, and that again, ``REACH - 1`` times (a box dilated by a box is the larger box)."""
     a = filled.astype(np.uint8)
     b = np.empty_like(a)
-    _dilate(a, b, 0, 1)
-    _dilate(b, a, 1, 1)
-    _dilate(a, b, 2, 1)  # b: within one bucket
-    c = np.empty_like(a)
-    _dilate(b, a, 0, REACH - 1)
-    _dilate(a, c, 1, REACH - 1)
-    _dilate(c, a, 2, REACH - 1)  # a: within REACH
-    fa, fb = a.reshape(a.size), b.reshape(b.size)
-    for q in range(fa.size):
-        fb[q] = fa[q] + ADJACENT * fb[q]
-    return b
+    _dilate1(a, b, 0)
+    _dilate1(b, a, 1)
+    adjacent = np.empty_like(a)
+    _dilate1(a, adjacent, 2)  # within one bucket
+    near = adjacent
+    for _ in range(REACH - 1):  # each round one bucket farther
+        out = np.empty_like(a)
+        _dilate1(near, b, 0)
+        _dilate1(b, a, 1)
+        _dilate1(a, out, 2)
+        near = out
+    fn, fa = near.reshape(near.size), adjacent.reshape(adjacent.size)
+    for q in range(fn.size):
+        fn[q] = fn[q] | (fa[q] << 1)  # ADJACENT
+    return near
 
 
 @numba.njit(cache=True)
@@ -184,7 +197,7 @@ def _run_min(S, a, b, x, y, z, best):  # pragma: no cover - jitted
     return best
 
 
-@numba.njit(cache=True)
+@kernel
 def nearest_in(px, py, pz, r, start, S, origin, bucket, dims):  # pragma: no cover - jitted
     """:func:`navstack.planner.map.nearest_distance` over the snapshot of :func:`point_index`: the distance [m]
     to the nearest point of the buckets within ``ceil(r / bucket)`` of (px, py, pz)'s, exact below ``r``,
@@ -203,7 +216,7 @@ def nearest_in(px, py, pz, r, start, S, origin, bucket, dims):  # pragma: no cov
     return math.sqrt(best)
 
 
-@numba.njit(cache=True)
+@kernel
 def distance_below(px, py, pz, r, occ, start, S, origin, bucket, dims):  # pragma: no cover - jitted
     """:func:`nearest_in` (the snapshot ``occ, start, S, origin, bucket, dims`` of :func:`point_index`),
     answering ``r`` without a scan where the mask shows no stored point near."""
@@ -216,7 +229,7 @@ def distance_below(px, py, pz, r, occ, start, S, origin, bucket, dims):  # pragm
     return nearest_in(px, py, pz, r, start, S, origin, bucket, dims)
 
 
-@numba.njit(cache=True)
+@kernel
 def samples_clear(ax, ay, az, bx, by, bz, fracs, r, occ, start, S, origin, bucket, dims):  # pragma: no cover
     """True if every point ``a + f (b - a)``, ``f`` in ``fracs``, keeps ``r`` from every live point:
     ``distance_below(x, r) >= r`` at each, the same answer.  For ``r`` under a bucket each point's scan is
@@ -253,7 +266,7 @@ def samples_clear(ax, ay, az, bx, by, bz, fracs, r, occ, start, S, origin, bucke
     return True
 
 
-@numba.njit(cache=True)
+@kernel
 def distances_below(xs, n, r, out, occ, start, S, origin, bucket, dims):  # pragma: no cover
     """``out[t] = distance_below(xs[t], r)`` for ``t < n``, bit for bit, from one scan of the buckets around
     all ``n`` points (each visited once; a point's own scan covers the buckets within ``ceil(r / bucket)`` of

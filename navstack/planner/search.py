@@ -36,6 +36,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from navstack.fused import norm3
+from navstack.jit import kernel
 from navstack.planner.map import SensedMap
 from navstack.planner.potential import (
     BLOCKED,
@@ -281,7 +282,7 @@ def turn_then_straight(px, py, pz, hx, hy, hz, gx, gy, gz, radius, lower=False):
     return radius * phi + t
 
 
-@numba.njit(cache=True)
+@kernel
 def _heuristic(px, py, pz, hx, hy, hz, k, k_nav, goals, reach, rest, nav, nav_origin, nav_cell,
                radius):  # pragma: no cover - jitted
     """Cost-to-go estimate: the larger of the navigation function (obstacles, no curvature) for goal
@@ -310,7 +311,7 @@ def _heuristic(px, py, pz, hx, hy, hz, k, k_nav, goals, reach, rest, nav, nav_or
     return (d if d > 0.0 else 0.0) + rest[k]
 
 
-@numba.njit(cache=True)
+@kernel
 def _key(px, py, pz, hx, hy, hz, k, origin, cell, hbin, dims, n_goals1):  # pragma: no cover - jitted
     ix = int(math.floor((px - origin[0]) / cell))
     iy = int(math.floor((py - origin[1]) / cell))
@@ -328,7 +329,7 @@ def _key(px, py, pz, hx, hy, hz, k, origin, cell, hbin, dims, n_goals1):  # prag
     return key * n_goals1 + k
 
 
-@numba.njit(cache=True)
+@kernel
 def _backward(qx, qy, qz, node, NP, NPAR, hist, reach, out):  # pragma: no cover - jitted
     """The path behind q as a polyline ``out[:n]`` (q first), back through the node's ancestors' end
     points, then the history ``hist`` (oldest first, ending at the root), then straight on, until it
@@ -365,7 +366,7 @@ def _backward(qx, qy, qz, node, NP, NPAR, hist, reach, out):  # pragma: no cover
     return n
 
 
-@numba.njit(cache=True)
+@kernel
 def _chain(line, n, L, count, pts):  # pragma: no cover - jitted
     """``count`` chord points one ``L`` apart back along the polyline ``line[:n]`` (its first point the
     tip) into ``pts``: the slithering chain (each the first crossing of the sphere of radius L around
@@ -398,7 +399,7 @@ def _chain(line, n, L, count, pts):  # pragma: no cover - jitted
     return count
 
 
-@numba.njit(cache=True)
+@kernel
 def _last_link_clear(pts, qx, qy, qz, r, occ, start, S, origin, bucket, bdims):  # pragma: no cover
     """The last link, the chord from the first chain point ``pts[0]`` to the tip q, keeps ``r`` from every
     surface point (checked at :data:`_CHORD_FRACTIONS` of it)."""
@@ -406,7 +407,7 @@ def _last_link_clear(pts, qx, qy, qz, r, occ, start, S, origin, bucket, bdims): 
                          bucket, bdims)
 
 
-@numba.njit(cache=True)
+@kernel
 def _flange_clear(pts, r, occ, start, S, origin, bucket, bdims):  # pragma: no cover - jitted
     """The flange (chain point 5) and the point one link behind it (6), where the arm begins, keep ``r``."""
     for i in (5, 6):
@@ -415,7 +416,7 @@ def _flange_clear(pts, r, occ, start, S, origin, bucket, bdims):  # pragma: no c
     return True
 
 
-@numba.njit(cache=True)
+@kernel
 def _arm_shifted_clear(pts, arm_pts, flange, r, occ, start, S, origin, bucket,
                        bdims):  # pragma: no cover - jitted
     """The arm's axis ``arm_pts`` translated by the flange's displacement (chain point 5 minus ``flange``)
@@ -429,7 +430,7 @@ def _arm_shifted_clear(pts, arm_pts, flange, r, occ, start, S, origin, bucket,
     return True
 
 
-@numba.njit(cache=True)
+@kernel
 def _body_clear(qx, qy, qz, node, NP, NPAR, hist, L, r_link, r_arm, line, pts, occ, start, S, origin,
                 bucket, bdims, arm):  # pragma: no cover - jitted
     """The body behind the tip at q: the last link (a straight chord, inside the bends of the path) keeps
@@ -445,7 +446,7 @@ def _body_clear(qx, qy, qz, node, NP, NPAR, hist, L, r_link, r_arm, line, pts, o
     return not (arm and r_arm > 0.0) or _flange_clear(pts, r_arm, occ, start, S, origin, bucket, bdims)
 
 
-@numba.njit(cache=True)
+@kernel
 def _arm_clear(qx, qy, qz, node, NP, NPAR, hist, L, arm_pts, flange, r, line, pts, occ, start, S, origin,
                bucket, bdims):  # pragma: no cover - jitted
     """True if the arm, carried with the flange of the chain behind q (:func:`_arm_shifted_clear`), keeps ``r``
