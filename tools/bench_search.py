@@ -1,0 +1,104 @@
+"""The planner's searches of a few trials, replayed alone: how long the hybrid A* takes, without the rest.
+
+Each world's trial runs once (slither controller, field planner, seed 0) with every call of the search
+kernel captured: its inputs copied before the call, its outputs after.  Then each search is called again
+``--repeats`` times on its copied inputs, and the best time of each is summed.  Every replay must give the
+trial's own answer (status, final node, expansions and every node array), else the tool says so: a kernel
+is deterministic in its inputs.  Printed per world: searches, total best-of-N time [ms], expansions, time
+per expansion [us], and the share of the time in searches that spent their whole expansion budget.  Usage::
+
+    python tools/bench_search.py [--repeats 3] [--worlds W.json ...]
+
+The default worlds are the paper demo, ``truss_clutter.json`` and slot-rack seed 5 (sparse goals).  Compare
+versions by running this tool in each, alternating, in one session: the machine's speed drifts.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import time
+from pathlib import Path
+
+import numpy as np
+
+import navstack.planner.search as search_module
+from navstack.trial import TrialConfig, run_trial
+from navstack.world import World, load_world
+
+ROOT = Path(__file__).resolve().parents[1]
+NODE_ARRAYS = 9
+"""The kernel's last arguments: the node arrays it fills (positions, headings, ..., lengths)."""
+
+
+def capture(world: World) -> list[tuple[tuple, tuple, list[np.ndarray]]]:
+    """Run ``world``'s trial; every search kernel call as (inputs copied before, outputs, node arrays after)."""
+    kernel = search_module._search_kernel
+    calls = []
+
+    def recording(*args):
+        before = copy.deepcopy(args)
+        out = kernel(*args)
+        calls.append((before, tuple(out), [np.array(a[: out[3]]) for a in args[-NODE_ARRAYS:]]))
+        return out
+
+    search_module._search_kernel = recording
+    try:
+        result = run_trial(world, seed=0, config=TrialConfig())
+    finally:
+        search_module._search_kernel = kernel
+    if result.reason == "error":
+        raise RuntimeError(f"trial on {world.name} failed: {result.error}")
+    return calls
+
+
+def replay(calls, repeats: int) -> tuple[float, int, float, int]:
+    """(total best time [s], expansions, time in budget-spent searches [s], mismatches)."""
+    total = spent = 0.0
+    expansions = mismatches = 0
+    for inputs, outputs, nodes in calls:
+        best = np.inf
+        for _ in range(repeats):
+            args = copy.deepcopy(inputs)
+            t = time.perf_counter()
+            out = tuple(search_module._search_kernel(*args))
+            best = min(best, time.perf_counter() - t)
+            filled = [a[: out[3]] for a in args[-NODE_ARRAYS:]]
+            same = out == outputs and all(np.array_equal(a, b) for a, b in zip(filled, nodes, strict=True))
+            mismatches += not same
+        total += best
+        expansions += outputs[2]
+        budget = int(inputs[9][6])  # cfg = [step, samples, cell, heading_bin, epsilon, w_turn, max_expansions, ...]
+        if outputs[0] == search_module.PARTIAL and outputs[2] > budget:
+            spent += best
+    return total, expansions, spent, mismatches
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--worlds", nargs="+", default=None,
+                    help="world files (default: the paper demo, truss_clutter.json and slot-rack seed 5)")
+    ap.add_argument("--repeats", type=int, default=3)
+    args = ap.parse_args()
+    if args.worlds:
+        worlds = [(Path(w).stem, load_world(w)) for w in args.worlds]
+    else:
+        from navstack.generate import generate_world
+
+        worlds = [("paper_truss (demo)", load_world(ROOT / "worlds" / "paper_truss.json")),
+                  ("truss_clutter", load_world(ROOT / "worlds" / "truss_clutter.json")),
+                  ("slot-rack seed 5 (sparse goals)", generate_world("slot-rack", 5))]
+    run_trial(worlds[0][1], seed=0, config=TrialConfig())  # compile and load everything once
+    print(f"{'world':34s} {'searches':>8s} {'best-of-' + str(args.repeats) + ' ms':>12s} {'expansions':>10s} "
+          f"{'us/exp':>7s} {'budget spent':>12s}")
+    for label, world in worlds:
+        calls = capture(world)
+        total, expansions, spent, mismatches = replay(calls, args.repeats)
+        print(f"{label:34s} {len(calls):8d} {1e3 * total:12.1f} {expansions:10d} "
+              f"{1e6 * total / max(expansions, 1):7.1f} {100 * spent / max(total, 1e-12):11.0f}%", flush=True)
+        if mismatches:
+            print(f"  {mismatches} replays differ from the trial's own search: the kernel is not deterministic")
+
+
+if __name__ == "__main__":
+    main()
