@@ -40,7 +40,7 @@ REACH = 2
 
 
 ADJACENT = 2
-"""The mask's second bit (``1 << 1``): a bucket within one bucket of the cell holds a point slot (its 3 x 3 x 3
+"""The mask's second bit (``1 << 1``): a bucket within one bucket of the cell holds a live point (its 3 x 3 x 3
 buckets, what a query closer than a bucket scans)."""
 
 
@@ -219,7 +219,7 @@ def nearest_in(px, py, pz, r, start, S, origin, bucket, dims):  # pragma: no cov
 @kernel
 def distance_below(px, py, pz, r, occ, start, S, origin, bucket, dims):  # pragma: no cover - jitted
     """:func:`nearest_in` (the snapshot ``occ, start, S, origin, bucket, dims`` of :func:`point_index`),
-    answering ``r`` without a scan where the mask shows no stored point near."""
+    answering ``r`` without a scan where the mask shows no live point near."""
     if math.ceil(r / bucket) <= REACH:  # the scan's own reach
         i = _cell(px, origin, bucket, dims, 0)
         j = _cell(py, origin, bucket, dims, 1)

@@ -556,9 +556,9 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
             length = NL[node]
             j_end = 0  # the row of arcs at s_end
             for j in range(1, n_samp + 1):  # the samples, and their distances to the map in one scan
-                a = arcs[m, j]
-                samp[j - 1, 0], samp[j - 1, 1], samp[j - 1, 2], _, _, _ = _arc_from(px, py, pz, hx, hy, hz, nx, ny, nz,
-                                                                                    kap, a[0], a[1], a[2], a[3], a[4])
+                samp[j - 1, 0], samp[j - 1, 1], samp[j - 1, 2], _, _, _ = _arc_from(
+                    px, py, pz, hx, hy, hz, nx, ny, nz, kap, arcs[m, j, 0], arcs[m, j, 1], arcs[m, j, 2], arcs[m, j, 3],
+                    arcs[m, j, 4])
             distances_below(samp, n_samp, c_reach, samp_d, occ, start, S, origin, bucket, bdims)
             for j in range(1, n_samp + 1):
                 s = j * ds
@@ -598,8 +598,8 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
             g2 = g + cost + w_turn * step * kap / kappa_max
             if length + s_end > max_len:
                 continue
-            a = arcs[m, j_end]
-            qx, qy, qz, tx, ty, tz = _arc_from(px, py, pz, hx, hy, hz, nx, ny, nz, kap, s_end, a[1], a[2], a[3], a[4])
+            qx, qy, qz, tx, ty, tz = _arc_from(px, py, pz, hx, hy, hz, nx, ny, nz, kap, s_end, arcs[m, j_end, 1],
+                                               arcs[m, j_end, 2], arcs[m, j_end, 3], arcs[m, j_end, 4])
             if s_end < step and not _body_clear(qx, qy, qz, node, NP, NPAR, hist, link, rep[0], r_arm, line,
                                                 chain_pts, occ, start, S, origin, bucket, bdims, True):
                 continue  # the goal was passed between two body checks: check where the path ends
