@@ -40,7 +40,7 @@ REACH = 2
 
 
 ADJACENT = 2
-"""The mask's second bit (``1 << 1``): a bucket within one bucket of the cell holds a live point (its 3 x 3 x 3
+"""The mask's second bit: a bucket within one bucket of the cell holds a live point (its 3 x 3 x 3
 buckets, what a query closer than a bucket scans)."""
 
 
@@ -88,7 +88,7 @@ def occupied_near(filled: NDArray[np.bool_]) -> NDArray[np.uint8]:  # pragma: no
         near = out
     fn, fa = near.reshape(near.size), adjacent.reshape(adjacent.size)
     for q in range(fn.size):
-        fn[q] = fn[q] | (fa[q] << 1)  # ADJACENT
+        fn[q] = fn[q] | (ADJACENT * fa[q])
     return near
 
 
