@@ -298,6 +298,20 @@ class SensorReading:
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
 
+    @classmethod
+    def _owned(cls, origins: NDArray[np.float64], directions: NDArray[np.float64], ranges: NDArray[np.float64],
+               hit: NDArray[np.bool_], valid: NDArray[np.bool_], max_range: float) -> SensorReading:
+        """A reading of arrays its maker has just built (float and bool arrays of agreeing shapes, no hit that
+        dropped out, a positive ``max_range``) and hands over: frozen without the checks and copies of
+        :meth:`__post_init__`."""
+        reading = object.__new__(cls)
+        for name, arr in (("origins", origins), ("directions", directions), ("ranges", ranges), ("hit", hit),
+                          ("valid", valid)):
+            arr.setflags(write=False)
+            object.__setattr__(reading, name, arr)
+        object.__setattr__(reading, "max_range", max_range)
+        return reading
+
     @property
     def n_rays(self) -> int:
         """Number of rays R."""
@@ -337,7 +351,7 @@ def apply_noise(
     start = _ray_start_distances(config)
     if start.shape != r.shape:
         raise ValueError(f"{r.shape[0]} ranges given but the SensorConfig has {start.shape[0]} rays")
-    noisy = np.where(h, np.clip(r + config.noise_std * g, start, config.max_range), config.max_range)
+    noisy = np.where(h, np.minimum(np.maximum(r + config.noise_std * g, start), config.max_range), config.max_range)
     hit_out = h & valid
     ranges = np.where(valid, noisy, np.nan)
     return ranges, hit_out, valid
@@ -373,5 +387,9 @@ def reading_from_rays(
         r = np.where(hit, true_ranges, config.max_range)
         return SensorReading(origins, directions, r, np.asarray(hit, bool), np.ones(len(r), bool),
                              config.max_range)
-    ranges, h, valid = apply_noise(true_ranges, hit, config, rng)
-    return SensorReading(origins, directions, ranges, h, valid, config.max_range)
+    ranges, h, valid = apply_noise(true_ranges, hit, config, rng)  # (R,) each, R the config's rays
+    d = np.array(directions, dtype=np.float64)
+    if d.shape != (ranges.shape[0], 3) or origins.shape != d.shape:
+        raise ValueError(f"reading_from_rays: directions {d.shape} and origin {np.shape(origin)} do not match "
+                         f"{ranges.shape[0]} rays")
+    return SensorReading._owned(origins.astype(np.float64, copy=False), d, ranges, h, valid, float(config.max_range))

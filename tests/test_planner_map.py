@@ -657,3 +657,15 @@ def test_sensed_map_rejects_bad_boxes():
         SensedMap([0, 0, 0], [-2, 1, 1])
     with pytest.raises(ValueError, match="too large"):
         SensedMap([0, 0, 0], [20, 20, 20])
+
+
+@pytest.mark.parametrize("bad", ["origins", "directions", "starts", "ranges", "hit", "informative"])
+def test_update_rejects_arrays_that_disagree_naming_them(bad):
+    """The compiled update reads every array for every ray: one too short must be an error, not a stray read."""
+    smap = SensedMap([0, 0, 0], [1, 1, 1])
+    rays = {"origins": np.full((4, 3), 0.5), "directions": np.tile([1.0, 0.0, 0.0], (4, 1)),
+            "starts": np.zeros(4), "ranges": np.full(4, 0.3), "hit": np.ones(4, bool), "informative": np.ones(4, bool)}
+    rays[bad] = rays[bad][:3]
+    with pytest.raises(ValueError, match="must agree|must be \\(R, 3\\)"):
+        smap.update(**rays)
+    assert smap.n_points == 0 and smap.revision == 0

@@ -189,3 +189,19 @@ def test_distances_below_is_distance_below_bit_for_bit_on_dense_surfaces(seed):
             assert out[:n].tolist() == want, (xs, r)
             below += sum(w < r for w in want)
     assert below > 1500
+
+
+def test_point_index_is_shared_at_one_revision_and_renewed_by_every_change():
+    smap = SensedMap([0.0, 0.0, 0.0], [0.5, 0.4, 0.3], MapConfig(margin=0.1))
+    smap.add_points(np.array([[0.1, 0.1, 0.1], [0.3, 0.2, 0.1]]))
+    first = point_index(smap)
+    assert point_index(smap) is first  # no change: the same snapshot
+    smap.add_points(np.array([[0.1, 0.1, 0.1004]]))  # a sub-millimetre move: `version` stays, the snapshot not
+    moved = point_index(smap)
+    assert moved is not first and not np.array_equal(moved[2], first[2])
+    smap.update(np.array([[0.0, 0.2, 0.1]]), np.array([[1.0, 0.0, 0.0]]), np.array([0.0]), np.array([0.25]),
+                np.array([True]), np.array([True]))
+    hit = point_index(smap)
+    assert hit is not moved and len(hit[2]) > len(moved[2])
+    assert np.any(np.all(np.abs(hit[2] - [0.25, 0.2, 0.1]) < 1e-12, axis=1))  # the ray's hit, with its shadows
+    np.testing.assert_array_equal(hit[2], point_index(smap)[2])

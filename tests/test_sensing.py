@@ -16,6 +16,7 @@ from navstack.sensing import (
     frame_from_direction,
     ray_directions,
     ray_start_distances,
+    reading_from_rays,
 )
 from navstack.sim.rays import RaySensor
 
@@ -259,3 +260,11 @@ def test_read_rejects_bad_poses_and_arguments(client):
         RaySensor(client, dataclasses.asdict(EXACT), None, None)
     with pytest.raises(TypeError, match="robot_id"):
         RaySensor(client, EXACT, "robot", None)
+
+
+def test_reading_from_rays_rejects_directions_that_do_not_match_the_rays():
+    cfg = SensorConfig()
+    n = ray_directions(cfg).shape[0]
+    with pytest.raises(ValueError, match="do not match"):
+        reading_from_rays(np.zeros(3), np.ones((n - 1, 3)), np.full(n, 0.4), np.zeros(n, bool), cfg,
+                          np.random.default_rng(0))

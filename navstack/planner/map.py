@@ -250,6 +250,50 @@ def _carve(origins, dirs, starts, ends, free, forigin, fcell, fdims, P, alive, e
     return removed
 
 
+
+@numba.njit(cache=True)
+def _reading_rays(origins, dirs, starts, ranges, hit, informative, hit_backoff, depths):  # pragma: no cover
+    """One reading's rays as :meth:`SensedMap.update` takes them apart: the informative rays with a finite
+    range (``origins, dirs, starts, ends`` of each, ``end`` being ``hit_backoff`` [m] short of a hit), and the
+    points to merge, the hits in ray order and then their shadows, depth by depth (``depths`` [m] behind
+    each hit); returns ``(o, d, st, ends, points, hits)``.  The same operations as numpy's on the masked arrays,
+    in the same order."""
+    n = ranges.shape[0]
+    use = np.empty(n, dtype=np.bool_)
+    n_use = 0
+    n_hit = 0
+    for r in range(n):
+        use[r] = informative[r] and math.isfinite(ranges[r])
+        n_use += use[r]
+        n_hit += use[r] and hit[r]
+    o = np.empty((n_use, 3))
+    d = np.empty((n_use, 3))
+    st = np.empty(n_use)
+    ends = np.empty(n_use)
+    pts = np.empty((n_hit * (1 + depths.shape[0]), 3))
+    u = 0
+    m = 0
+    for r in range(n):
+        if not use[r]:
+            continue
+        for c in range(3):
+            o[u, c] = origins[r, c]
+            d[u, c] = dirs[r, c]
+        st[u] = starts[r]
+        ends[u] = ranges[r] - hit_backoff if hit[r] else ranges[r]
+        u += 1
+        if hit[r]:
+            rm = ranges[r]
+            for c in range(3):
+                pts[m, c] = origins[r, c] + rm * dirs[r, c]
+            for t in range(depths.shape[0]):
+                q = m + (t + 1) * n_hit
+                for c in range(3):
+                    pts[q, c] = origins[r, c] + (rm + depths[t]) * dirs[r, c]
+            m += 1
+    return o, d, st, ends, pts, n_hit
+
+
 @numba.njit(cache=True)
 def _purge_shadows(alive, shadow, n, P, free, forigin, fcell, fdims):  # pragma: no cover - jitted
     """Drop the shadow points whose cell has been seen free; returns how many."""
@@ -377,6 +421,14 @@ def _merge_points(first, pts, keys, n_plain, plain_voxels, shadow_voxels, P, cou
     return pts.shape[0], n, n_changed
 
 
+
+def _rows3(a: ArrayLike) -> NDArray[np.float64]:
+    """``a`` as a C-contiguous float (R, 3) array (a ``ValueError`` naming its shape otherwise)."""
+    out = np.ascontiguousarray(a, dtype=np.float64)
+    if out.ndim != 2 or out.shape[1] != 3:
+        raise ValueError(f"SensedMap.update: origins and directions must be (R, 3) arrays, got shape {out.shape}")
+    return out
+
 # ------------------------------------------------------------------------------------------ class
 class SensedMap:
     """Surface points and seen-free cells over the box ``lo .. hi`` [m] (see the module docstring)."""
@@ -413,8 +465,14 @@ class SensedMap:
         self._shadow_voxels = _new_voxel_table()
         self.version = 0
         """Incremented whenever a point is added, moved by more than a millimetre, or removed."""
+        self.revision = 0
+        """Incremented by every call that may change a point at all (:meth:`update`, :meth:`add_points`): what a
+        snapshot of the points (:func:`navstack.planner.proximity.point_index`) is valid for."""
+        self.snapshot: tuple | None = None
+        """``(revision, snapshot)``: the last snapshot of the points made by a proximity index, for reuse."""
         self.new_points = np.empty((0, 3))
         """Points added or moved by the last :meth:`update` (K, 3) [m]."""
+        self._depths = np.array(cfg.shadow_depths, dtype=np.float64).reshape(-1)
 
     # ---- storage
     @property
@@ -470,6 +528,7 @@ class SensedMap:
         """Merge ``pts`` (K, 3), contiguous, in order: the first ``n_plain`` as surface points, the rest as
         shadow points (one compiled pass; :meth:`add_points` on each part in turn does the same)."""
         cfg = self.config
+        self.revision += 1
         keys, bad = _voxel_keys(pts, self.origin, cfg.voxel)
         if bad >= 0:
             raise ValueError(f"SensedMap.add_points: point {pts[bad]} is not finite or lies more than {_KEY_OFFSET} "
@@ -498,30 +557,27 @@ class SensedMap:
         coasting tracks) are ignored.
         """
         self.new_points = np.empty((0, 3))
-        o = np.asarray(origins, dtype=np.float64)
-        d = np.asarray(directions, dtype=np.float64)
-        st = np.asarray(starts, dtype=np.float64)
-        rg = np.asarray(ranges, dtype=np.float64)
-        h = np.asarray(hit, dtype=np.bool_)
-        use = np.asarray(informative, dtype=np.bool_) & np.isfinite(rg)
-        ends = np.where(h, rg - self.config.hit_backoff, rg)
         cfg = self.config
-        n_use = int(np.count_nonzero(use))
-        removed = _carve(o[use], d[use], st[use], ends[use], self.free, self.origin, cfg.free_cell,
-                         self.free_dims, self._P, self._alive, self._evidence, self._mark, self._rays, self.head,
-                         self._next, self.origin, cfg.bucket, self.bucket_dims,
-                         cfg.clear_radius if cfg.forget_moved else 0.0, cfg.clear_backoff)
-        self._rays += n_use
+        rays = (_rows3(origins), _rows3(directions), np.ascontiguousarray(starts, dtype=np.float64),
+                np.ascontiguousarray(ranges, dtype=np.float64), np.ascontiguousarray(hit, dtype=np.bool_),
+                np.ascontiguousarray(informative, dtype=np.bool_))
+        if any(a.shape[0] != rays[3].shape[0] for a in rays) or any(a.ndim != 1 for a in rays[2:]):
+            raise ValueError("SensedMap.update: origins, directions (R, 3) and starts, ranges, hit, informative (R,) "
+                             f"must agree, got shapes {[a.shape for a in rays]}")
+        o, d, st, ends, pts, n_hit = _reading_rays(*rays, cfg.hit_backoff, self._depths)
+        removed = _carve(o, d, st, ends, self.free, self.origin, cfg.free_cell, self.free_dims, self._P, self._alive,
+                         self._evidence, self._mark, self._rays, self.head, self._next, self.origin, cfg.bucket,
+                         self.bucket_dims, cfg.clear_radius if cfg.forget_moved else 0.0, cfg.clear_backoff)
+        self._rays += o.shape[0]
         if removed:
             self.version += 1
-        m = use & h
-        if np.any(m):  # the hits, then their shadows depth by depth, in one pass
-            om, rm, dm = o[m], rg[m, None], d[m]
-            hits = om + rm * dm
-            self._merge(np.concatenate([hits] + [om + (rm + depth) * dm for depth in cfg.shadow_depths]), len(hits))
+            self.revision += 1
+        if n_hit:  # the hits, then their shadows depth by depth, in one pass
+            self._merge(pts, n_hit)
         if _purge_shadows(self._alive, self._shadow, self._n, self._P, self.free, self.origin, cfg.free_cell,
                           self.free_dims):
             self.version += 1
+            self.revision += 1
 
     def mark_free(self, centre: ArrayLike, radius: float) -> None:
         """The robot has been here: the cells within ``radius`` [m] of ``centre`` are seen free."""

@@ -122,10 +122,17 @@ def _rows(P, alive, head, nxt):  # pragma: no cover - jitted
 def point_index(smap: SensedMap) -> tuple:
     """A snapshot of ``smap`` for the proximity kernels: ``(occ, start, S, origin, bucket, bucket_dims)``
     (:func:`occupied_near`'s mask of the buckets holding live points, the live points in bucket order); valid
-    until the map changes."""
+    until the map changes.  Kept with the map for its :attr:`~navstack.planner.map.SensedMap.revision`: the
+    searches of one control step (the plan's check, a search and its retry, an escape's candidates) share it.
+    Read-only for the kernels."""
+    cached = smap.snapshot
+    if cached is not None and cached[0] == smap.revision:
+        return cached[1]
     P, alive, head, nxt, origin, bucket, dims = smap.arrays()
     start, S = _rows(P, alive, head, nxt)
-    return occupied_near(filled_buckets(start, head.shape)), start, S, origin, bucket, dims
+    index = occupied_near(filled_buckets(start, head.shape)), start, S, origin, bucket, dims
+    smap.snapshot = (smap.revision, index)
+    return index
 
 
 def filled_buckets(start: NDArray[np.int64], shape: tuple) -> NDArray[np.bool_]:

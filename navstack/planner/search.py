@@ -195,15 +195,35 @@ class Plan:
 
     def state(self, s: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Position and unit tangent at arc length ``s`` (clamped), linearly interpolated."""
-        s = min(max(float(s), 0.0), self.length)
-        i = min(max(int(np.searchsorted(self.arc, s, side="right")) - 1, 0), max(len(self.arc) - 2, 0))
         if len(self.arc) == 1:
             return self.points[0].copy(), self.tangents[0].copy()
-        ds = self.arc[i + 1] - self.arc[i]
-        f = 0.0 if ds <= 0 else (s - self.arc[i]) / ds
-        p = self.points[i] + f * (self.points[i + 1] - self.points[i])
-        t = self.tangents[i] + f * (self.tangents[i + 1] - self.tangents[i])
-        return p, t / np.linalg.norm(t)
+        return _state_at(self.arc, self.points, self.tangents, min(max(float(s), 0.0), self.length))
+
+
+@numba.njit(cache=True)
+def _state_at(arc, points, tangents, s):  # pragma: no cover - jitted
+    """:meth:`Plan.state` for ``s`` within the plan (two or more samples): the segment holding ``s`` (the last
+    sample at or before it, as ``numpy.searchsorted(side="right") - 1``, kept off the last sample), the position
+    and tangent interpolated along it, the tangent divided by its norm (``numpy.linalg.norm``'s)."""
+    lo, hi = 0, arc.shape[0]  # the first index whose arc exceeds s, by bisection
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if arc[mid] > s:
+            hi = mid
+        else:
+            lo = mid + 1
+    i = min(max(lo - 1, 0), arc.shape[0] - 2)
+    ds = arc[i + 1] - arc[i]
+    f = 0.0 if ds <= 0 else (s - arc[i]) / ds
+    p = np.empty(3)
+    t = np.empty(3)
+    for c in range(3):
+        p[c] = points[i, c] + f * (points[i + 1, c] - points[i, c])
+        t[c] = tangents[i, c] + f * (tangents[i + 1, c] - tangents[i, c])
+    n = norm3(t[0], t[1], t[2])
+    for c in range(3):
+        t[c] = t[c] / n
+    return p, t
 
 
 # ------------------------------------------------------------------------------------------ kernels
@@ -560,6 +580,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
                     px, py, pz, hx, hy, hz, nx, ny, nz, kap, arcs[m, j, 0], arcs[m, j, 1], arcs[m, j, 2], arcs[m, j, 3],
                     arcs[m, j, 4])
             distances_below(samp, n_samp, c_reach, samp_d, occ, start, S, origin, bucket, bdims)
+            j_last = n_samp  # the last sample of the arc (where it passes the last goal, if it does)
             for j in range(1, n_samp + 1):
                 s = j * ds
                 qx, qy, qz = samp[j - 1, 0], samp[j - 1, 1], samp[j - 1, 2]
@@ -572,14 +593,6 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
                 if c == BLOCKED:
                     ok = False
                     break
-                # the body: the last link is a straight chord behind the tip, inside the bends of the path
-                # (checked every other sample and at the end; the flange and the arm's start at the end)
-                if j % 2 == 0 or j == n_samp:
-                    rb = r_start if length + s < relax + link else rep[0]
-                    if not _body_clear(qx, qy, qz, node, NP, NPAR, hist, link, rb, r_arm, line, chain_pts, occ, start,
-                                       S, origin, bucket, bdims, j == n_samp):
-                        ok = False
-                        break
                 cost += ds * (1.0 + c)
                 while kk < n_goals:
                     gx = goals[kk, 0] - qx
@@ -592,6 +605,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
                 if kk >= n_goals:
                     s_end = s
                     j_end = j
+                    j_last = j
                     break
             if not ok:
                 continue
@@ -600,9 +614,6 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
                 continue
             qx, qy, qz, tx, ty, tz = _arc_from(px, py, pz, hx, hy, hz, nx, ny, nz, kap, s_end, arcs[m, j_end, 1],
                                                arcs[m, j_end, 2], arcs[m, j_end, 3], arcs[m, j_end, 4])
-            if s_end < step and not _body_clear(qx, qy, qz, node, NP, NPAR, hist, link, rep[0], r_arm, line,
-                                                chain_pts, occ, start, S, origin, bucket, bdims, True):
-                continue  # the goal was passed between two body checks: check where the path ends
             tn = math.sqrt(tx * tx + ty * ty + tz * tz)
             tx /= tn
             ty /= tn
@@ -612,6 +623,22 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
                 continue
             if key2 in best_g and best_g[key2] <= g2:
                 continue
+            # the body, only for an arc whose end state is new or cheaper (every test above and below is
+            # pure, so their order does not change which arcs are kept): the last link is a straight chord
+            # behind the tip, inside the bends of the path (checked every other sample and at the end; the
+            # flange and the arm's start at the end)
+            for j in range(1, j_last + 1):
+                if j % 2 == 0 or j == n_samp:
+                    rb = r_start if length + j * ds < relax + link else rep[0]
+                    if not _body_clear(samp[j - 1, 0], samp[j - 1, 1], samp[j - 1, 2], node, NP, NPAR, hist, link, rb,
+                                       r_arm, line, chain_pts, occ, start, S, origin, bucket, bdims, j == n_samp):
+                        ok = False
+                        break
+            if not ok:
+                continue
+            if s_end < step and not _body_clear(qx, qy, qz, node, NP, NPAR, hist, link, rep[0], r_arm, line,
+                                                chain_pts, occ, start, S, origin, bucket, bdims, True):
+                continue  # the goal was passed between two body checks: check where the path ends
             best_g[key2] = g2
             if n_nodes >= cap:
                 return 1, best_node, expansions, n_nodes
