@@ -13,7 +13,15 @@ import numpy as np
 import pytest
 
 from navstack.planner.map import MapConfig, SensedMap, nearest_distance
-from navstack.planner.proximity import ADJACENT, REACH, distance_below, nearest_in, occupied_near, point_index
+from navstack.planner.proximity import (
+    ADJACENT,
+    REACH,
+    distance_below,
+    nearest_in,
+    occupied_near,
+    point_index,
+    sets_closer_than,
+)
 
 
 def _brute_mask(head: np.ndarray, reach: int = REACH) -> np.ndarray:
@@ -205,3 +213,16 @@ def test_point_index_is_shared_at_one_revision_and_renewed_by_every_change():
     assert hit is not moved and len(hit[2]) > len(moved[2])
     assert np.any(np.all(np.abs(hit[2] - [0.25, 0.2, 0.1]) < 1e-12, axis=1))  # the ray's hit, with its shadows
     np.testing.assert_array_equal(hit[2], point_index(smap)[2])
+
+
+def test_sets_closer_than_is_numpys_smallest_pairwise_distance_against_the_threshold():
+    rng = np.random.default_rng(3)
+    for _ in range(300):
+        a = rng.normal(scale=0.1, size=(int(rng.integers(0, 12)), 3))
+        b = rng.normal(scale=0.1, size=(int(rng.integers(0, 30)), 3))[:: int(rng.integers(1, 4))]  # strided too
+        if len(a) and len(b):
+            d = float(np.sqrt(((a[:, None, :] - b[None, :, :]) ** 2).sum(axis=2).min()))
+            for r in (d, np.nextafter(d, np.inf), 0.5 * d + 0.01):
+                assert sets_closer_than(a, b, r) == (d < r)
+        else:
+            assert not sets_closer_than(a, b, 1.0)  # an empty set is near nothing

@@ -33,6 +33,7 @@ from navstack.path import PathMemory
 from navstack.planner.escape import EscapeConfig, find_branch_point
 from navstack.planner.map import MapConfig, SensedMap
 from navstack.planner.potential import NavigationFunction, Repulsion, navigation_function
+from navstack.planner.proximity import sets_closer_than
 from navstack.planner.search import (
     NO_PATH,
     REACHED,
@@ -268,15 +269,11 @@ class FieldPlanner:
         plan = f.plan
         if plan.status != REACHED and self.time - self._planned_at >= cfg.replan_period:
             return True
-        i = int(np.searchsorted(plan.arc, f.s))
         new = self.map.new_points
-        if len(new):
-            j = int(np.searchsorted(plan.arc, f.s + cfg.horizon))
-            ahead = plan.points[i : j + 1 : 4]
-            if len(ahead):
-                d2 = ((new[:, None, :] - ahead[None, :, :]) ** 2).sum(axis=2)
-                if float(np.sqrt(d2.min())) < cfg.repulsion.r_block + cfg.urgent_margin:
-                    return True
+        if len(new):  # a new point near the plan ahead (every fourth sample over the horizon)
+            i, j = np.searchsorted(plan.arc, (f.s, f.s + cfg.horizon))
+            if sets_closer_than(new, plan.points[i : j + 1 : 4], cfg.repulsion.r_block + cfg.urgent_margin):
+                return True
         return self.map.version != self._planned_version and self.time - self._planned_at >= cfg.replan_period
 
     # ---- sensing

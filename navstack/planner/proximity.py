@@ -33,7 +33,7 @@ from navstack.jit import kernel
 from navstack.planner.map import SensedMap, _cell
 
 __all__ = ["ADJACENT", "REACH", "distance_below", "distances_below", "filled_buckets", "nearest_in", "occupied_near",
-           "point_index", "samples_clear"]
+           "point_index", "samples_clear", "sets_closer_than"]
 
 REACH = 2
 """Buckets of neighbourhood the mask covers (queries up to ``REACH * bucket`` use it)."""
@@ -311,3 +311,20 @@ def distances_below(xs, n, r, out, occ, start, S, origin, bucket, dims):  # prag
                     out[t] = _run_min(S, a, b, xs[t, 0], xs[t, 1], xs[t, 2], out[t])
     for t in range(n):
         out[t] = math.sqrt(out[t])
+
+
+@numba.njit(cache=True)
+def sets_closer_than(a, b, r):  # pragma: no cover - jitted
+    """True if some point of ``a`` (N, 3) lies within ``r`` [m] of some point of ``b`` (M, 3): the smallest
+    distance below ``r``, each squared distance summed in numpy's order (``((a[:, None] - b[None]) ** 2).sum(2)``,
+    x and y first), so the answer is numpy's."""
+    best = np.inf
+    for i in range(a.shape[0]):
+        for j in range(b.shape[0]):
+            dx = a[i, 0] - b[j, 0]
+            dy = a[i, 1] - b[j, 1]
+            dz = a[i, 2] - b[j, 2]
+            d2 = dx * dx + dy * dy + dz * dz
+            if d2 < best:
+                best = d2
+    return a.shape[0] > 0 and b.shape[0] > 0 and math.sqrt(best) < r
