@@ -250,7 +250,6 @@ def _carve(origins, dirs, starts, ends, free, forigin, fcell, fdims, P, alive, e
     return removed
 
 
-
 @numba.njit(cache=True)
 def _reading_rays(origins, dirs, starts, ranges, hit, informative, hit_backoff, depths):  # pragma: no cover
     """One reading's rays as :meth:`SensedMap.update` takes them apart: the informative rays with a finite
@@ -421,13 +420,13 @@ def _merge_points(first, pts, keys, n_plain, plain_voxels, shadow_voxels, P, cou
     return pts.shape[0], n, n_changed
 
 
-
 def _rows3(a: ArrayLike) -> NDArray[np.float64]:
     """``a`` as a C-contiguous float (R, 3) array (a ``ValueError`` naming its shape otherwise)."""
     out = np.ascontiguousarray(a, dtype=np.float64)
     if out.ndim != 2 or out.shape[1] != 3:
         raise ValueError(f"SensedMap.update: origins and directions must be (R, 3) arrays, got shape {out.shape}")
     return out
+
 
 # ------------------------------------------------------------------------------------------ class
 class SensedMap:
