@@ -656,3 +656,24 @@ def test_plan_state_equals_numpy_interpolation_bit_for_bit():
             p_got, t_got = plan.state(s)
             np.testing.assert_array_equal(p_got, pts[i] + f * (pts[i + 1] - pts[i]))
             np.testing.assert_array_equal(t_got, t / np.linalg.norm(t))
+
+
+@pytest.mark.parametrize(("goals", "status", "expansions", "cost"), [
+    ([[1.1, -0.2, 0.0]], PARTIAL, 8001, 1.106652140770652),
+    ([[0.6, 0.1, 0.05], [1.1, -0.2, 0.0]], PARTIAL, 8001, 1.1467798416423856),
+    ([[1.1, 0.3, 0.1]], REACHED, 2386, 1.8455052868139774),
+])
+def test_search_answers_on_a_fixed_scene_are_those_recorded_before_issue_11(goals, status, expansions, cost):
+    """Two slotted walls and clutter; the answers recorded at a2c3154 (before issue 11) and again at 0a89b7e.
+    The speed work reordered and pruned the arcs' tests on the claim that it keeps exactly the same arcs: a
+    test that keeps one arc too few (or too many) changes the expansions and the cost (seen: the potential's
+    lower bound for a state already reached, doubled, gives 3258 expansions on the third)."""
+    rng = np.random.default_rng(11)
+    pts = np.concatenate([_wall(slot_y=0.15, width=0.1, x=0.45), _wall(slot_y=-0.2, width=0.1, x=0.75),
+                          rng.uniform([0.1, -0.4, -0.2], [0.9, 0.4, 0.2], (60, 3))])
+    smap = SensedMap([-0.1, -0.6, -0.4], [1.3, 0.6, 0.4])
+    smap.add_points(pts)
+    smap.mark_free(smap.origin + 0.5 * smap.free_dims * smap.config.free_cell, 10.0)
+    plan = _plan(smap, goals)
+    assert (plan.status, plan.expansions) == (status, expansions)
+    assert plan.cost == pytest.approx(cost, rel=1e-9)

@@ -575,25 +575,20 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
             ds = step / n_samp
             length = NL[node]
             j_end = 0  # the row of arcs at s_end
-            for j in range(1, n_samp + 1):  # the samples, and their distances to the map in one scan
+            for j in range(1, n_samp + 1):  # the samples
                 samp[j - 1, 0], samp[j - 1, 1], samp[j - 1, 2], _, _, _ = _arc_from(
                     px, py, pz, hx, hy, hz, nx, ny, nz, kap, arcs[m, j, 0], arcs[m, j, 1], arcs[m, j, 2], arcs[m, j, 3],
                     arcs[m, j, 4])
-            distances_below(samp, n_samp, c_reach, samp_d, occ, start, S, origin, bucket, bdims)
+            # every test of an arc is pure and none changes the search, so the cheap ones go first: the box
+            # and the goals passed (the samples alone), the end state's cell (closed: nothing more to ask),
+            # then the samples' distances to the map (the potential, blocked samples), then the body
             j_last = n_samp  # the last sample of the arc (where it passes the last goal, if it does)
             for j in range(1, n_samp + 1):
-                s = j * ds
                 qx, qy, qz = samp[j - 1, 0], samp[j - 1, 1], samp[j - 1, 2]
                 if qx < box_lo[0] or qy < box_lo[1] or qz < box_lo[2] or qx > box_hi[0] or qy > box_hi[1] \
                         or qz > box_hi[2]:
                     ok = False
                     break
-                rb = r_start if length + s < relax else rep[0]
-                c = cost_at(samp_d[j - 1], qx, qy, qz, rb, rep, origin, free, fcell, fdims)
-                if c == BLOCKED:
-                    ok = False
-                    break
-                cost += ds * (1.0 + c)
                 while kk < n_goals:
                     gx = goals[kk, 0] - qx
                     gy = goals[kk, 1] - qy
@@ -603,14 +598,11 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
                     else:
                         break
                 if kk >= n_goals:
-                    s_end = s
+                    s_end = j * ds
                     j_end = j
                     j_last = j
                     break
-            if not ok:
-                continue
-            g2 = g + cost + w_turn * step * kap / kappa_max
-            if length + s_end > max_len:
+            if not ok or length + s_end > max_len:
                 continue
             qx, qy, qz, tx, ty, tz = _arc_from(px, py, pz, hx, hy, hz, nx, ny, nz, kap, s_end, arcs[m, j_end, 1],
                                                arcs[m, j_end, 2], arcs[m, j_end, 3], arcs[m, j_end, 4])
@@ -621,10 +613,27 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
             key2 = _key(qx, qy, qz, tx, ty, tz, kk, origin, cell, hbin, dims, n_goals + 1)
             if key2 < 0 or key2 in closed:
                 continue
+            if key2 in best_g:  # reached already: at least as cheaply as this arc can be (its potential >= 0)?
+                floor = 0.0
+                for j in range(j_last):
+                    floor += ds * (1.0 + 0.0)  # the cost below with no potential: never more, in floats too
+                if best_g[key2] <= g + floor + w_turn * step * kap / kappa_max:
+                    continue
+            distances_below(samp, n_samp, c_reach, samp_d, occ, start, S, origin, bucket, bdims)
+            for j in range(1, j_last + 1):
+                rb = r_start if length + j * ds < relax else rep[0]
+                c = cost_at(samp_d[j - 1], samp[j - 1, 0], samp[j - 1, 1], samp[j - 1, 2], rb, rep, origin, free,
+                            fcell, fdims)
+                if c == BLOCKED:
+                    ok = False
+                    break
+                cost += ds * (1.0 + c)
+            if not ok:
+                continue
+            g2 = g + cost + w_turn * step * kap / kappa_max
             if key2 in best_g and best_g[key2] <= g2:
                 continue
-            # the body, only for an arc whose end state is new or cheaper (every test above and below is
-            # pure, so their order does not change which arcs are kept): the last link is a straight chord
+            # the body, only for an arc whose end state is new or cheaper: the last link is a straight chord
             # behind the tip, inside the bends of the path (checked every other sample and at the end; the
             # flange and the arm's start at the end)
             for j in range(1, j_last + 1):
