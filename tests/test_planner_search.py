@@ -667,7 +667,9 @@ def test_search_answers_on_a_fixed_scene_are_those_recorded_before_issue_11(goal
     """Two slotted walls and clutter; the answers recorded at a2c3154 (before issue 11) and again at 0a89b7e.
     The speed work reordered and pruned the arcs' tests on the claim that it keeps exactly the same arcs: a
     test that keeps one arc too few (or too many) changes the expansions and the cost (seen: the potential's
-    lower bound for a state already reached, doubled, gives 3258 expansions on the third)."""
+    lower bound for a state already reached, doubled, gives 3258 expansions and a cost 0.5 % lower on the third,
+    costs 0.4 % and 1.6 % off on the others).  The tolerances leave room for another machine's libm rounding a
+    sine's last bit otherwise, nothing more."""
     rng = np.random.default_rng(11)
     pts = np.concatenate([_wall(slot_y=0.15, width=0.1, x=0.45), _wall(slot_y=-0.2, width=0.1, x=0.75),
                           rng.uniform([0.1, -0.4, -0.2], [0.9, 0.4, 0.2], (60, 3))])
@@ -675,5 +677,6 @@ def test_search_answers_on_a_fixed_scene_are_those_recorded_before_issue_11(goal
     smap.add_points(pts)
     smap.mark_free(smap.origin + 0.5 * smap.free_dims * smap.config.free_cell, 10.0)
     plan = _plan(smap, goals)
-    assert (plan.status, plan.expansions) == (status, expansions)
-    assert plan.cost == pytest.approx(cost, rel=1e-9)
+    assert plan.status == status
+    assert plan.expansions == pytest.approx(expansions, rel=0.01)
+    assert plan.cost == pytest.approx(cost, rel=1e-3)
