@@ -615,7 +615,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
                 continue
             if key2 in best_g:  # reached already: at least as cheaply as this arc can be (its potential >= 0)?
                 floor = 0.0
-                for j in range(j_last):
+                for _ in range(j_last):
                     floor += ds * (1.0 + 0.0)  # the cost below with no potential: never more, in floats too
                 if best_g[key2] <= g + floor + w_turn * step * kap / kappa_max:
                     continue
