@@ -156,7 +156,7 @@ class NavigationFunction:
     @property
     def values(self) -> NDArray[np.float64]:
         """The whole grid of values [m] (finishes the wavefront first)."""
-        if self._wave[6][0] > 0:
+        if self._wave[5][0] > 0:  # cells still queued (the heap's size)
             _wave_settle(self._wave, -1)
         return self._values
 
