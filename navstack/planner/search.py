@@ -48,7 +48,6 @@ from navstack.planner.potential import (
     wave_value,
 )
 from navstack.planner.proximity import distance_below, distances_below, point_index, samples_clear
-from navstack.planner.states import best_of, close, is_closed, new_table, set_best
 
 __all__ = ["NO_PATH", "PARTIAL", "REACHED", "ArmShape", "Plan", "SearchConfig", "search", "still_clear"]
 
@@ -518,7 +517,8 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
     dims = np.empty(3, dtype=np.int64)
     for c in range(3):
         dims[c] = int(math.ceil((box_hi[c] - origin[c]) / cell)) + 1
-    states = new_table(12)  # per state key: the cheapest cost found, closed or not
+    best_g = numba.typed.Dict.empty(key_type=numba.types.int64, value_type=numba.types.float64)
+    closed = numba.typed.Dict.empty(key_type=numba.types.int64, value_type=numba.types.boolean)
     NP[0] = p0
     NH[0] = h0
     NK[0] = k0
@@ -551,9 +551,9 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
         g = NG[node]
         key = _key(px, py, pz, hx, hy, hz, k, origin, cell, hbin, dims, n_goals + 1)
         if node > 0:
-            if is_closed(states, key):
+            if key in closed:
                 continue
-            states = close(states, key)
+            closed[key] = True
             if use_arm and not _arm_clear(px, py, pz, NPAR[node], NP, NPAR, hist, link, arm_pts, flange, arm_reach,
                                           line, chain_pts, occ, start, S, origin, bucket, bdims):
                 continue  # the arm, carried with the flange, would meet a sensed surface
@@ -611,14 +611,13 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
             ty /= tn
             tz /= tn
             key2 = _key(qx, qy, qz, tx, ty, tz, kk, origin, cell, hbin, dims, n_goals + 1)
-            if key2 < 0 or is_closed(states, key2):
+            if key2 < 0 or key2 in closed:
                 continue
-            best2 = best_of(states, key2)
-            if best2 < math.inf:  # reached already: at least as cheaply as this arc can be (its potential >= 0)?
+            if key2 in best_g:  # reached already: at least as cheaply as this arc can be (its potential >= 0)?
                 floor = 0.0
                 for _ in range(j_last):
                     floor += ds * (1.0 + 0.0)  # the cost below with no potential: never more, in floats too
-                if best2 <= g + floor + w_turn * step * kap / kappa_max:
+                if best_g[key2] <= g + floor + w_turn * step * kap / kappa_max:
                     continue
             distances_below(samp, n_samp, c_reach, samp_d, occ, start, S, origin, bucket, bdims)
             for j in range(1, j_last + 1):
@@ -632,7 +631,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
             if not ok:
                 continue
             g2 = g + cost + w_turn * step * kap / kappa_max
-            if best2 <= g2:  # reached already, at least as cheaply (inf: not reached)
+            if key2 in best_g and best_g[key2] <= g2:
                 continue
             # the body, only for an arc whose end state is new or cheaper: the last link is a straight chord
             # behind the tip, inside the bends of the path (checked every other sample and at the end; the
@@ -649,7 +648,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
             if s_end < step and not _body_clear(qx, qy, qz, node, NP, NPAR, hist, link, rep[0], r_arm, line,
                                                 chain_pts, occ, start, S, origin, bucket, bdims, True):
                 continue  # the goal was passed between two body checks: check where the path ends
-            states = set_best(states, key2, g2)
+            best_g[key2] = g2
             if n_nodes >= cap:
                 return 1, best_node, expansions, n_nodes
             q = n_nodes
