@@ -13,8 +13,10 @@ so a kernel can take numpy's order of operations exactly.  The orders measured o
 * a matrix times a matrix (2 x 2, stacked or not): ``fma(a_i1, b_1j, a_i0 * b_0j)``;
 * a product over an inner dimension of 1: the plain product.
 
-Another BLAS may order them otherwise; the results then differ from numpy's in the last bit, which changes
-nothing but bit-for-bit comparisons with the numpy code these kernels replaced.
+Another BLAS, or the same OpenBLAS on another machine, may sum them otherwise (on an AMD EPYC, issue 11's ninth
+round, a 3-vector's ``dot`` is the plain sum, each product rounded; ``tests/_blas.py``'s ``FUSES`` tells); the
+results then differ from numpy's in the last bit, which changes nothing but bit-for-bit comparisons with the numpy
+code these kernels replaced, and the trials, whose closed loops carry a last-bit difference on.
 """
 
 from __future__ import annotations
