@@ -24,3 +24,12 @@ def _probe() -> bool:
 
 FUSES = _probe()
 """True where navstack's compiled kernels give numpy's results bit for bit (the wheels' OpenBLAS on x86-64)."""
+
+
+def assert_as_numpy_sums(got: np.ndarray, want: np.ndarray, scale: np.ndarray | float) -> None:
+    """``got`` is ``want`` bit for bit where numpy's BLAS fuses as OpenBLAS does (:data:`FUSES`); on any BLAS
+    within four roundings of ``scale`` (the sum of the products' magnitudes: another order of the same sum is
+    that close)."""
+    assert np.all(np.abs(got - want) <= 4 * np.finfo(float).eps * np.asarray(scale))
+    if FUSES:
+        np.testing.assert_array_equal(got, want)

@@ -36,48 +36,52 @@ NODE_ARRAYS = 9
 """The kernel's last arguments: the node arrays it fills (positions, headings, ..., lengths)."""
 
 
-def capture(world: World) -> list[tuple[tuple, tuple, list[np.ndarray]]]:
-    """Run ``world``'s trial; every search kernel call as (inputs copied before, outputs, node arrays after)."""
+def _trial_with_kernel(world: World, wrap) -> None:
+    """Run ``world``'s trial (seed 0) with the search kernel replaced by ``wrap(kernel)``, restored after."""
     kernel = search_module._search_kernel
-    calls = []
-
-    def recording(*args):
-        before = copy.deepcopy(args)
-        out = kernel(*args)
-        calls.append((before, tuple(out), [np.array(a[: out[3]]) for a in args[-NODE_ARRAYS:]]))
-        return out
-
-    search_module._search_kernel = recording
+    search_module._search_kernel = wrap(kernel)
     try:
         result = run_trial(world, seed=0, config=TrialConfig())
     finally:
         search_module._search_kernel = kernel
     if result.reason == "error":
         raise RuntimeError(f"trial on {world.name} failed: {result.error}")
+
+
+def capture(world: World) -> list[tuple[tuple, tuple, list[np.ndarray]]]:
+    """Run ``world``'s trial; every search kernel call as (inputs copied before, outputs, node arrays after)."""
+    calls = []
+
+    def recording(kernel):
+        def call(*args):
+            before = copy.deepcopy(args)
+            out = kernel(*args)
+            calls.append((before, tuple(out), [np.array(a[: out[3]]) for a in args[-NODE_ARRAYS:]]))
+            return out
+        return call
+
+    _trial_with_kernel(world, recording)
     return calls
 
 
 def in_trial(world: World, repeats: int) -> float:
     """The median over ``repeats`` trials of ``world`` of the time [s] spent in the search kernel's calls (timed
     alone, nothing copied)."""
-    kernel = search_module._search_kernel
     spent = [0.0]
 
-    def timed(*args):
-        t = time.perf_counter()
-        out = kernel(*args)
-        spent[0] += time.perf_counter() - t
-        return out
+    def timed(kernel):
+        def call(*args):
+            t = time.perf_counter()
+            out = kernel(*args)
+            spent[0] += time.perf_counter() - t
+            return out
+        return call
 
     totals = []
-    search_module._search_kernel = timed
-    try:
-        for _ in range(repeats):
-            spent[0] = 0.0
-            run_trial(world, seed=0, config=TrialConfig())
-            totals.append(spent[0])
-    finally:
-        search_module._search_kernel = kernel
+    for _ in range(repeats):
+        spent[0] = 0.0
+        _trial_with_kernel(world, timed)
+        totals.append(spent[0])
     return statistics.median(totals)
 
 
