@@ -45,6 +45,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
+from _bench_worlds import HELP, bench_worlds
 
 from navstack.jpl import jpl_serpentine
 from navstack.sensing import SensorConfig, ray_directions, ray_start_distances
@@ -224,20 +225,12 @@ def far_members(world: World, count: int, seed: int = 0) -> World:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--worlds", nargs="+", default=None,
-                    help="world files (default: the paper demo, truss_clutter.json and slot-rack seed 5)")
+    ap.add_argument("--worlds", nargs="+", default=None, help=HELP)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--no-growth", action="store_true", help="skip the rays and far-obstacle rows")
     args = ap.parse_args()
-    from navstack.generate import generate_world
-
     paper = load_world(ROOT / "worlds" / "paper_truss.json")
-    if args.worlds:
-        worlds = [(Path(w).stem, load_world(w)) for w in args.worlds]
-    else:
-        worlds = [("paper_truss (demo)", paper),
-                  ("truss_clutter", load_world(ROOT / "worlds" / "truss_clutter.json")),
-                  ("slot-rack seed 5 (sparse goals)", generate_world("slot-rack", 5))]
+    worlds = bench_worlds(args.worlds)
     base = TrialConfig()
     run_trial(paper, seed=0, config=base)  # compile and load everything once
     print(f"{'':53s} {'ms per control step, medians of ' + str(args.repeats):^40s}   {'floor parts':^17s}")

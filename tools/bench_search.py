@@ -23,15 +23,14 @@ import argparse
 import copy
 import statistics
 import time
-from pathlib import Path
 
 import numpy as np
+from _bench_worlds import HELP, bench_worlds
 
 import navstack.planner.search as search_module
 from navstack.trial import TrialConfig, run_trial
-from navstack.world import World, load_world
+from navstack.world import World
 
-ROOT = Path(__file__).resolve().parents[1]
 NODE_ARRAYS = 9
 """The kernel's last arguments: the node arrays it fills (positions, headings, ..., lengths)."""
 
@@ -109,18 +108,10 @@ def replay(calls, repeats: int) -> tuple[float, int, float, int]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--worlds", nargs="+", default=None,
-                    help="world files (default: the paper demo, truss_clutter.json and slot-rack seed 5)")
+    ap.add_argument("--worlds", nargs="+", default=None, help=HELP)
     ap.add_argument("--repeats", type=int, default=3)
     args = ap.parse_args()
-    if args.worlds:
-        worlds = [(Path(w).stem, load_world(w)) for w in args.worlds]
-    else:
-        from navstack.generate import generate_world
-
-        worlds = [("paper_truss (demo)", load_world(ROOT / "worlds" / "paper_truss.json")),
-                  ("truss_clutter", load_world(ROOT / "worlds" / "truss_clutter.json")),
-                  ("slot-rack seed 5 (sparse goals)", generate_world("slot-rack", 5))]
+    worlds = bench_worlds(args.worlds)
     run_trial(worlds[0][1], seed=0, config=TrialConfig())  # compile and load everything once
     print(f"{'world':34s} {'searches':>8s} {'best-of-' + str(args.repeats) + ' ms':>12s} {'expansions':>10s} "
           f"{'us/exp':>7s} {'budget spent':>12s} {'in trial ms':>11s}")
