@@ -453,8 +453,11 @@ class _Simulation:
         F = self.chain.frames(q)
         origins = F[1:22, :3, 3] @ self.R0.T + self.p0  # frames 1..21 in the world
         tip = self._to_world(F[21, :3, 3])
-        clearance = self.scene.clearance(self.body.body_id, self.cfg.clearance_horizon,
-                                         robot_boxes=self.body.link_boxes(origins))
+        boxes = self.body.link_boxes(origins)
+        clearance = self.scene.clearance(self.body.body_id, self.cfg.clearance_horizon, robot_boxes=boxes)
+        if self.scene.movers and self.steps:  # and while they moved since the last control step
+            t = self.steps * self.dt
+            clearance = self.scene.swept_clearance(self.body.body_id, t - self.dt, t, clearance, boxes)
         self.min_clearance = min(self.min_clearance, clearance)
         if clearance <= 0.0:
             self.contacts += 1

@@ -62,8 +62,9 @@ a module constant):
   :data:`MAX_MOTION_TIME`] s and ``period`` in (0, :data:`MAX_MOTION_TIME`] s;
 * moving obstacles are at most :data:`MAX_OBSTACLE_SPEED` (0.5 m/s) fast: ``|velocity|`` and the peak
   speed 2 pi ``amplitude`` / ``period`` of an oscillation.  At the default 30 Hz control rate that is at
-  most 17 mm per control step, less than the thinnest allowed link (2 x 0.01 m), so an obstacle cannot
-  jump through a link between two contact checks;
+  most 17 mm per control step; a trial's contact check sweeps each mover over the step
+  (:meth:`navstack.sim.scene.Scene.swept_clearance`), so one that grazes a link between two control steps
+  is seen;
 * at most :data:`MAX_OBSTACLES` (10000) obstacles and :data:`MAX_GOALS` (1000) goals; ``extra`` nested at
   most :data:`MAX_EXTRA_DEPTH` (64) levels deep;
 * the file: a regular file (not a directory, FIFO or device) of at most :data:`MAX_WORLD_BYTES` (64 MiB;
@@ -536,6 +537,11 @@ class LinearMotion(_ValueEq):
                                        unit=" s (at least start; omit it for no stop)"))
         else:
             _set(self, "stop", math.inf)
+
+    @property
+    def peak_speed(self) -> float:
+        """Largest speed (m/s): ``|velocity|``."""
+        return float(np.linalg.norm(self.velocity))
 
     def displacement(self, t: float) -> FloatArray:
         """Translation (m) at simulated time ``t`` (s)."""

@@ -55,3 +55,18 @@ def test_a_moving_obstacle_that_starts_in_contact_is_refused():
     assert ei.value.json_path == "obstacles[1]" and "at t = 0" in str(ei.value)
     osc["motion"]["phase"] = 0.0  # at t = 0 it is 0.1 m away: accepted, it reaches the tip later
     check_start(world_from_dict(world_data(osc)))
+
+
+def test_a_fast_mover_that_grazes_a_link_between_two_control_steps_is_a_collision():
+    """A 1 mm sphere falling at 0.5 m/s (17 mm per control step) past a serpentine link, its path 0.7 mm
+    inside the link's surface for 12 mm, between the looks at t = 1 s and 1.033 s: neither look sees it, so
+    before the swept check this trial was a success."""
+    R, r, dt = 0.025, 0.001, 1 / 30  # the paper robot's serpentine radius (m), the sphere's, the control period
+    h = np.sqrt((R + r) ** 2 - 0.006 ** 2)  # its path's distance from the link's axis: a 12 mm chord
+    t_cross = 1.0 + dt / 2
+    graze = {"type": "sphere", "center": [TIP[0] - 0.3, TIP[1] + h, TIP[2] + 0.5 * t_cross], "radius": r,
+             "motion": {"type": "linear", "velocity": [0.0, 0.0, -0.5], "stop": 2.0}}
+    result = run_trial(world_from_dict(world_data(graze, time_limit=20.0)), planner="scripted")
+    assert result.reason == "collision" and not result.success
+    assert result.metrics["contacts"] == 1
+    assert result.metrics["min_clearance"] == pytest.approx(h - R - r, abs=5e-5)  # -0.70 mm

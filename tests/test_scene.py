@@ -360,6 +360,44 @@ def test_clearance_sees_the_moved_position(client):
     assert scene.touching(probe) == [(0, pytest.approx(-0.08, abs=TOL))]  # at t = 9.5 they overlap
 
 
+def _probe_boxes(center, radius: float = R_PROBE):
+    c = np.asarray(center, dtype=np.float64)[None, :]
+    return c - radius, c + radius
+
+
+def test_swept_clearance_sees_a_graze_between_two_control_steps(client):
+    """A small sphere crossing at 0.5 m/s past the probe, 0.5 mm deep for 12 mm of its path: 17 mm between the
+    control-step looks at t0 and t1, midway between which it is closest; closed form: h - r - R_PROBE."""
+    h, r, v, dt = R_PROBE + 0.005 - 0.0005, 0.005, 0.5, 1 / 30
+    s = Sphere(center=[-v * dt / 2, h, 0.0], radius=r, motion=LinearMotion(velocity=[v, 0.0, 0.0]))
+    scene = Scene.build(client, world_of(s))
+    probe = make_probe(client)
+    place(client, probe, [0.0, 0.0, 0.0])
+    at_ends = []
+    for t in (0.0, dt):
+        scene.update(t)
+        client.performCollisionDetection()
+        at_ends.append(scene.clearance(probe))
+    assert min(at_ends) > 0.0  # neither look sees the contact
+    swept = scene.swept_clearance(probe, 0.0, dt, min(at_ends), _probe_boxes([0.0, 0.0, 0.0]))
+    assert swept == pytest.approx(h - r - R_PROBE, abs=1e-5)  # -0.5 mm, to within the sampling (1 mm apart)
+    pos, _ = client.getBasePositionAndOrientation(scene.obstacle_body[0])
+    np.testing.assert_array_equal(pos, (s.center + s.motion.displacement(dt)).tolist())  # put back at t1
+
+
+def test_swept_clearance_asks_nothing_of_far_or_still_movers(client, monkeypatch):
+    far = Sphere(center=[5.0, 0.0, 0.0], radius=0.1, motion=LinearMotion(velocity=[0.0, 0.5, 0.0]))
+    waiting = Sphere(center=[0.2, 0.0, 0.0], radius=0.1, motion=LinearMotion(velocity=[-0.5, 0.0, 0.0], start=5.0))
+    scene = Scene.build(client, world_of(far, waiting))
+    probe = make_probe(client)
+    place(client, probe, [0.0, 0.0, 0.0])
+    calls = []
+    monkeypatch.setattr(client, "getClosestPoints", lambda *a, **k: calls.append(a) or [])
+    below = 0.2 - 0.1 - R_PROBE
+    assert scene.swept_clearance(probe, 1.0, 1.0 + 1 / 30, below, _probe_boxes([0.0, 0.0, 0.0])) == below
+    assert calls == []  # the far one's box stays farther than `below`; the near one has not started to move
+
+
 def test_touching_names_each_obstacle_of_a_compound_body(client):
     spheres = [Sphere(center=[x, 0.0, 0.0], radius=0.1) for x in (0.0, 1.0, 2.0, 3.0)]
     box = Box(center=[0.0, 5.0, 0.0], half_extents=[0.5, 0.5, 0.5])
