@@ -37,6 +37,7 @@ contact with or inside an obstacle (:func:`check_start`), and
 from __future__ import annotations
 
 import json
+import math
 import os
 import tempfile
 import time
@@ -51,7 +52,7 @@ from navstack.planner.field import FieldPlannerConfig
 from navstack.planner.legacy import PlannerConfig
 from navstack.sensing import SensorConfig
 from navstack.sim.servo import ServoConfig
-from navstack.world import WorldError
+from navstack.world import Mesh, WorldError
 
 REASONS = ("reached", "collision", "timeout", "stalled", "joint_limit", "error")
 RETRACT_TOLERANCE = 0.02
@@ -336,7 +337,8 @@ def check_start(world, built: tuple[Any, Any, Any] | None = None) -> None:
     Checked in PyBullet: the robot at ``q0`` and the obstacles at t = 0 (moving ones displaced by their
     ``d(0)``); an obstacle at a signed distance <= 0 m from any robot link is named by its JSON path
     (``obstacles[3]``).  Such a trial would count a contact from its first step; refusing it makes the
-    world's mistake bad input.  A robot part inside a closed *mesh* is not seen (meshes are surfaces).
+    world's mistake bad input.  PyBullet sees a mesh as a surface, so a robot wholly inside a closed mesh
+    touches nothing there: such a mesh is named too (:mod:`navstack.sim.mesh_inside`).
     ``built``: the ``(client, body, scene)`` of :func:`navstack.sim.probe.build_scene` a trial is about to run
     in, checked there (one client per trial); else a throwaway one is built.
     """
@@ -346,15 +348,29 @@ def check_start(world, built: tuple[Any, Any, Any] | None = None) -> None:
     try:
         client.performCollisionDetection()  # as run() begins: link poses current for the distance queries
         hits = scene.touching(body.body_id)
+        frames = body.link_frames_world() if any(isinstance(o, Mesh) for o in world.obstacles) else None
     finally:
         if built is None:
             client.disconnect()
+    if not hits and frames is not None:
+        hits = _inside_closed_meshes(world, frames[:, :3, 3])
     if hits:
         i, d = hits[0]
-        how = "touches" if d > -1e-6 else f"penetrates {-d:.3g} m into"
+        how = ("is inside" if d == -math.inf else "touches" if d > -1e-6 else f"penetrates {-d:.3g} m into")
         others = "" if len(hits) == 1 else f" (so do obstacles {', '.join(f'[{j}]' for j, _ in hits[1:])})"
         raise WorldError(f"the robot at q0 {how} this {world.obstacles[i].type} at t = 0{others}; a trial must "
                          f"start clear of every obstacle", file=world.source, json_path=f"obstacles[{i}]")
+
+
+def _inside_closed_meshes(world, origins: np.ndarray) -> list[tuple[int, float]]:
+    """``(i, -inf)`` for each closed mesh ``world.obstacles[i]`` holding the robot, from the first and last of
+    its DH frame origins ``origins`` (21, 3) [m, world].  Two points decide it: the robot's capsules make one
+    connected body that touches no mesh (checked before), so it lies wholly in one side of each surface."""
+    from navstack.sim.mesh_inside import points_inside
+
+    points = origins[[0, -1]]
+    return [(i, -math.inf) for i, o in enumerate(world.obstacles)
+            if isinstance(o, Mesh) and bool(points_inside(o, points).any())]
 
 
 def _save(out: Path | None, sim: _Simulation, reason: str, error: str | None, wall: float, render: bool):

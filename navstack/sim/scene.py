@@ -33,7 +33,7 @@ per obstacle for comparison.
 PyBullet limitations found (pybullet 3.2.7):
 
 * a triangle mesh is a surface: a robot part entirely *inside* a closed mesh reports the (positive)
-  distance to the nearest triangle, not a penetration;
+  distance to the nearest triangle, not a penetration (the start check asks :mod:`navstack.sim.mesh_inside`);
 * ``createCollisionShapeArray`` keeps at most 16 children and silently drops the rest, and
   ``createVisualShapeArray`` with more than 16 crashed the process, hence the chunking;
 * collision shapes ask for a cylinder's ``height``, visual shapes for its ``length``.
@@ -269,7 +269,8 @@ class Scene:
         ``(index in world.obstacles, signed distance in m)`` sorted by index.
 
         A compound body that touches is resolved child by child with temporary bodies, so each obstacle
-        is named on its own.  As everywhere, a robot part inside a closed mesh is not seen (module doc).
+        is named on its own.  As everywhere, a robot part inside a closed mesh is not seen (module doc;
+        :mod:`navstack.sim.mesh_inside` tells the start check).
         """
         cl = self.client
         out: dict[int, float] = {}

@@ -1,0 +1,61 @@
+"""Which points lie inside a closed mesh obstacle: what PyBullet's distance queries cannot tell.
+
+PyBullet treats a mesh as a surface (:mod:`navstack.sim.scene`), so a robot wholly inside a closed mesh
+reports a positive distance to its nearest triangle and no contact: a trial could run inside a solid block and
+call itself a success.  The start check (:func:`navstack.trial.check_start`) asks this module instead.
+
+A point's winding number with respect to a closed triangle mesh is the sum of the solid angles its triangles
+subtend at the point over 4 pi: +-1 inside (the sign is the faces' orientation), 0 outside, whatever the
+mesh's shape (Jacobson, Kavan and Sorkine-Hornung, "Robust inside-outside segmentation using generalized
+winding numbers", SIGGRAPH 2013).  Each triangle's solid angle is Van Oosterom and Strackee's closed form
+(IEEE Trans. Biomed. Eng. 1983).  Only *closed* meshes (every edge shared by exactly two faces, trimesh's
+``is_watertight``) have an inside; an open surface has none and is never said to contain a point.  Points on
+the surface itself are not meaningful here: the caller has already refused any contact with it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
+
+from navstack.world import Mesh
+
+
+def winding_numbers(vertices: ArrayLike, faces: ArrayLike, points: ArrayLike) -> NDArray[np.float64]:
+    """The winding number (P,) of each of ``points`` (P, 3) [m] with respect to the triangles ``faces`` (F, 3,
+    vertex indices) of ``vertices`` (V, 3) [m]: about +-1 inside a closed mesh, about 0 outside."""
+    v = np.asarray(vertices, dtype=np.float64)
+    tri = v[np.asarray(faces, dtype=np.int64)]  # (F, 3 corners, 3)
+    out = np.empty(len(np.atleast_2d(points)))
+    for k, p in enumerate(np.atleast_2d(np.asarray(points, dtype=np.float64))):
+        a, b, c = (tri[:, i] - p for i in range(3))
+        la, lb, lc = (np.linalg.norm(x, axis=1) for x in (a, b, c))
+        det = np.einsum("ij,ij->i", a, np.cross(b, c))
+        den = (la * lb * lc + np.einsum("ij,ij->i", a, b) * lc + np.einsum("ij,ij->i", a, c) * lb
+               + np.einsum("ij,ij->i", b, c) * la)
+        out[k] = np.sum(2.0 * np.arctan2(det, den)) / (4.0 * np.pi)
+    return out
+
+
+def is_closed(vertices: ArrayLike, faces: ArrayLike) -> bool:
+    """Whether the triangles ``faces`` (F, 3) of ``vertices`` (V, 3) close up: trimesh's ``is_watertight``
+    (every edge shared by exactly two faces, coincident vertices merged first)."""
+    import trimesh  # slow to import: only mesh worlds need it
+
+    return bool(trimesh.Trimesh(vertices=vertices, faces=faces, process=True).is_watertight)
+
+
+def points_inside(mesh: Mesh, points: ArrayLike) -> NDArray[np.bool_]:
+    """For each of ``points`` (P, 3), world [m], whether it lies inside the closed mesh obstacle ``mesh`` placed
+    at its ``position`` and ``rpy`` (all False for a mesh that is not closed)."""
+    pts = np.atleast_2d(np.asarray(points, dtype=np.float64))
+    vertices, faces = mesh.triangles()
+    R = Rotation.from_euler("xyz", mesh.rpy).as_matrix()  # as the scene places it (scene._quat_xyzw_from_rpy)
+    local = (pts - mesh.position) @ R  # R.T @ (p - position), row by row
+    inside = np.all((local >= vertices.min(axis=0)) & (local <= vertices.max(axis=0)), axis=1)  # in its box
+    if inside.any() and is_closed(vertices, faces):  # a surface with a hole has no inside
+        inside[inside] = np.abs(winding_numbers(vertices, faces, local[inside])) > 0.5
+    else:
+        inside[:] = False
+    return inside
