@@ -151,6 +151,28 @@ def test_rotated_box(client):
     assert scene.clearance(probe) == pytest.approx(0.2 - R_PROBE, abs=TOL)
 
 
+def test_pybullet_rounds_box_corners_edges_and_cylinder_rims_by_its_1_mm_margin(client):
+    """The bound the README states: PyBullet's collision margin (1 mm) rounds a box's corners and edges and a
+    cylinder's rims, so the clearance there reads up to (sqrt 3 - 1) mm = 0.73 mm (corner) or (sqrt 2 - 1) mm =
+    0.41 mm (edge, rim) more than the true distance; on faces it is exact.  (Zero margin would be exact, but
+    then PyBullet's rays miss boxes altogether: not an option for the sensor.)"""
+    box = Box(center=[0.0, 0.0, 0.0], half_extents=[0.2, 0.2, 0.2])
+    cyl = Cylinder(p0=[2.0, 0.0, -0.2], p1=[2.0, 0.0, 0.2], radius=0.2)
+    scene = Scene.build(client, world_of(box, cyl))
+    probe = make_probe(client)
+    e = 0.05  # the probe's centre this far outside along each rounded direction
+    cases = {"face": ([0.2 + e, 0.0, 0.0], e, 0.0),
+             "edge": ([0.2 + e, 0.2 + e, 0.0], np.sqrt(2) * e, 0.41e-3),
+             "corner": ([0.2 + e] * 3, np.sqrt(3) * e, 0.73e-3),
+             "rim": ([2.2 + e, 0.0, 0.2 + e], np.sqrt(2) * e, 0.41e-3)}
+    for name, (x, true, bound) in cases.items():
+        place(client, probe, x)
+        over = scene.clearance(probe) - (true - R_PROBE)
+        assert -1e-6 <= over <= bound + 1e-5, (name, over)
+        if bound:
+            assert over > 0.9 * bound, (name, over)  # the rounding is there: the README's numbers hold
+
+
 def test_sphere_and_penetration(client):
     s = Sphere(center=[0.2, 0.3, -0.4], radius=0.15)
     scene = Scene.build(client, world_of(s))
