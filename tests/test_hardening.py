@@ -9,6 +9,7 @@ import json
 import os
 from pathlib import Path
 
+import numpy as np
 import pytest
 import trimesh
 from _worlds import BASE_POSITION, ROBOT, TIP, world_data
@@ -73,6 +74,40 @@ def test_clear_start_is_accepted(tmp_path, capsys):
     assert main(["check-world", world]) == 0
     assert "robot clear of every obstacle" in capsys.readouterr().out
     check_start(load_world(world))
+
+
+# ---- 1b. a box corner or edge a fraction of a millimetre into a link: PyBullet's rounding hides it ----------
+
+def _corner_towards(point, axis_to_corner, depth: float, half: float = 0.05) -> dict:
+    """A cube of half-size ``half`` turned so that one corner is its extreme point along ``-axis_to_corner``,
+    that corner ``depth`` (m) past ``point`` towards it: a cube that reaches ``depth`` into whatever
+    surface ``point`` lies on."""
+    from scipy.spatial.transform import Rotation
+    u = np.asarray(axis_to_corner, dtype=float) / np.linalg.norm(axis_to_corner)
+    rot, _ = Rotation.align_vectors([u], [np.ones(3) / np.sqrt(3)])
+    corner = np.asarray(point) - depth * u
+    return {"type": "box", "center": (corner + half * np.sqrt(3) * u).tolist(), "half_extents": [half] * 3,
+            "rpy": rot.as_euler("xyz").tolist()}
+
+
+def test_a_start_0_3_mm_into_a_box_corner_is_refused():
+    """PyBullet rounds box corners by up to 0.73 mm: alone, it saw this start as clear."""
+    R = world_from_dict(world_data()).robot.serpentine_radius
+    side = TIP + [-0.1, R, 0.0]  # on the tip link's surface, above its middle
+    with pytest.raises(WorldError) as ei:
+        check_start(world_from_dict(world_data(_corner_towards(side, [0, 1, 0], 0.3e-3))))
+    assert ei.value.json_path == "obstacles[1]" and "penetrates 0.0003 m" in str(ei.value)
+    check_start(world_from_dict(world_data(_corner_towards(side, [0, 1, 0], -0.3e-3))))  # 0.3 mm clear
+
+
+def test_a_path_0_4_mm_into_a_box_corner_is_a_collision_not_a_success():
+    """The scripted tip path runs straight along +x under a corner that reaches 0.4 mm into the serpentine's
+    surface.  Before the exact check this trial was `reached`, a success with min_clearance +0.33 mm."""
+    R = world_from_dict(world_data()).robot.serpentine_radius
+    corner = _corner_towards(TIP + [0.2, R, 0.0], [0, 1, 0], 0.4e-3)
+    result = run_trial(world_from_dict(world_data(corner, time_limit=20.0)), planner="scripted")
+    assert result.reason == "collision" and not result.success and result.metrics["contacts"] > 0
+    assert result.metrics["min_clearance"] == pytest.approx(-0.4e-3, abs=0.05e-3)
 
 
 # ---- 2. time_limit bounded; an exception inside `run` exits 1 -----------------------------------------

@@ -9,6 +9,7 @@ import trimesh
 from pybullet_utils import bullet_client
 from scipy.spatial.transform import Rotation
 
+from navstack.sim.exact_distance import MARGIN
 from navstack.sim.scene import MAX_COMPOUND_CHILDREN, Scene, SceneOptions
 from navstack.world import (
     Box,
@@ -153,9 +154,10 @@ def test_rotated_box(client):
 
 def test_pybullet_rounds_box_corners_edges_and_cylinder_rims_by_its_1_mm_margin(client):
     """The bound the README states: PyBullet's collision margin (1 mm) rounds a box's corners and edges and a
-    cylinder's rims, so the clearance there reads up to (sqrt 3 - 1) mm = 0.73 mm (corner) or (sqrt 2 - 1) mm =
-    0.41 mm (edge, rim) more than the true distance; on faces it is exact.  (Zero margin would be exact, but
-    then PyBullet's rays miss boxes altogether: not an option for the sensor.)"""
+    cylinder's rims, so above MARGIN (where the scene leaves PyBullet's distance as it is) the clearance there
+    reads up to (sqrt 3 - 1) mm = 0.73 mm (corner) or (sqrt 2 - 1) mm = 0.41 mm (edge, rim) more than the true
+    distance; on faces it is exact.  (Zero margin would be exact, but then PyBullet's rays miss boxes
+    altogether: not an option for the sensor.)"""
     box = Box(center=[0.0, 0.0, 0.0], half_extents=[0.2, 0.2, 0.2])
     cyl = Cylinder(p0=[2.0, 0.0, -0.2], p1=[2.0, 0.0, 0.2], radius=0.2)
     scene = Scene.build(client, world_of(box, cyl))
@@ -472,3 +474,45 @@ def test_without_visuals_the_same_collision_world(client, tmp_path, combine):
                 assert shown.clearance(probes[0], 1.0) == bare.clearance(probes[1], 1.0)
     finally:
         bare_client.disconnect()
+
+
+def test_within_the_margin_box_corners_edges_and_cylinder_rims_are_exact(client):
+    """Where PyBullet's rounding could hide a contact (it reads at most MARGIN = 1 mm), the scene's distances
+    are exact: 0.3 mm into a box corner, edge or cylinder rim is a contact, named, as deep as it is."""
+    box = Box(center=[0.0, 0.0, 0.0], half_extents=[0.2, 0.2, 0.2])
+    cyl = Cylinder(p0=[2.0, 0.0, -0.2], p1=[2.0, 0.0, 0.2], radius=0.2)
+    for combine in (True, False):
+        scene = Scene.build(client, world_of(box, cyl), SceneOptions(combine_primitives=combine))
+        probe = make_probe(client)
+        directions = {"corner": (np.zeros(3), np.ones(3) / np.sqrt(3), 0),
+                      "edge": (np.zeros(3), np.array([1.0, 1.0, 0.0]) / np.sqrt(2), 0),
+                      "rim": (np.array([2.0, 0.0, 0.0]), np.array([1.0, 0.0, 1.0]) / np.sqrt(2), 1)}
+        for name, (centre, u, index) in directions.items():
+            feature = centre + 0.2 * (np.sqrt(3) * u if name == "corner" else np.sqrt(2) * u)
+            for true in (0.2e-3, -0.3e-3):
+                place(client, probe, feature + (R_PROBE + true) * u)
+                raw = min(pt[8] for b in scene.body_ids for pt in client.getClosestPoints(probe, b, 0.01))
+                assert raw > 0.0, name  # PyBullet alone sees no contact even at -0.3 mm
+                assert scene.clearance(probe) == pytest.approx(true, abs=1e-9), (name, true)
+                assert scene.in_contact(probe) == (true < 0), name
+                assert scene.touching(probe) == ([(index, pytest.approx(true, abs=1e-9))] if true < 0 else [])
+        scene.remove()
+
+
+def test_swept_clearance_is_exact_at_a_moving_box_edge(client):
+    """A box turned 45 degrees about z, passing the probe at 0.5 m/s with its edge 0.3 mm deep: between two
+    looks, and only an edge (PyBullet alone reads +0.11 mm there)."""
+    h, depth, v, dt = 0.05, 0.3e-3, 0.5, 1 / 30
+    b = Box(center=[-v * dt / 2, R_PROBE - depth + h * np.sqrt(2), 0.0], half_extents=[h, h, h],
+            rpy=[0.0, 0.0, np.pi / 4], motion=LinearMotion(velocity=[v, 0.0, 0.0]))
+    scene = Scene.build(client, world_of(b))
+    probe = make_probe(client)
+    place(client, probe, [0.0, 0.0, 0.0])
+    at_ends = []
+    for t in (0.0, dt):
+        scene.update(t)
+        client.performCollisionDetection()
+        at_ends.append(scene.clearance(probe))
+    assert min(at_ends) > MARGIN
+    swept = scene.swept_clearance(probe, 0.0, dt, min(at_ends), _probe_boxes([0.0, 0.0, 0.0]))
+    assert swept == pytest.approx(-depth, abs=1e-5)  # to within the 1 mm sampling

@@ -36,7 +36,11 @@ PyBullet limitations found (pybullet 3.2.7):
   distance to the nearest triangle, not a penetration (the start check asks :mod:`navstack.sim.mesh_inside`);
 * ``createCollisionShapeArray`` keeps at most 16 children and silently drops the rest, and
   ``createVisualShapeArray`` with more than 16 crashed the process, hence the chunking;
-* collision shapes ask for a cylinder's ``height``, visual shapes for its ``length``.
+* collision shapes ask for a cylinder's ``height``, visual shapes for its ``length``;
+* boxes and cylinders get a 1 mm collision margin that rounds their corners, edges and rims, so PyBullet's
+  distance there reads up to 0.73 mm more than the true one (zero margin would make rays miss boxes): every
+  distance PyBullet reports within that margin is computed again exactly (:mod:`navstack.sim.exact_distance`),
+  so no contact hides in the rounding; above it, the clearance may read up to 0.73 mm high.
 """
 
 from __future__ import annotations
@@ -52,6 +56,7 @@ from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
 from navstack.sim._bullet import pybullet as p
+from navstack.sim.exact_distance import MARGIN, capsule_distance
 from navstack.world import Box, Cylinder, Mesh, Motion, Obstacle, Sphere, World, WorldError
 
 MAX_COMPOUND_CHILDREN = 16
@@ -173,6 +178,9 @@ class Scene:
                                                                                compare=False, repr=False)
     _body_rank: NDArray[np.int64] | None = field(default=None, init=False, compare=False, repr=False)
     """For each obstacle, the position of its body in :attr:`body_ids`."""
+    _capsules: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, float] | None] = field(
+        default_factory=dict, init=False, compare=False, repr=False)
+    """``(body, link)`` -> the link's collision capsule in its own frame (:func:`_link_capsules`' cache)."""
 
     @classmethod
     def build(cls, client: Any, world: World, options: SceneOptions | None = None) -> Scene:
@@ -240,7 +248,8 @@ class Scene:
         at 0.5 m/s and 30 Hz a mover moves 17 mm between two looks, enough to graze a link and leave unseen.
         Here each mover is placed at times between ``t0`` and ``t1`` (the ends excluded: :meth:`clearance`
         sees those) no more than :data:`SWEEP_STEP` of its motion apart, the robot's distance asked at each,
-        and the mover put back where :meth:`update` placed it at ``t1``.  A mover whose box over the interval
+        and the mover put back where :meth:`update` placed it at ``t1``; distances within :data:`MARGIN` are
+        made exact as in :meth:`clearance`.  A mover whose box over the interval
         is not within ``below`` of ``robot_boxes`` (``(lo, hi)``, each (L, 3) [m], as for :meth:`clearance`)
         is not asked.  The robot's own motion within the step is not swept (millimetres at most).
         """
@@ -259,8 +268,9 @@ class Scene:
                 continue  # it stays farther than what was already found
             for shift in shifts:
                 self.client.resetBasePositionAndOrientation(m.body, (m.position + shift).tolist(), m.orientation)
-                for pt in self.client.getClosestPoints(robot_id, m.body, max(best, 0.0)):
-                    best = min(best, pt[8])
+                here = min((pt[8] for pt in self.client.getClosestPoints(robot_id, m.body, max(best, MARGIN))),
+                           default=math.inf)
+                best = min(best, self._sharpen(robot_id, here, [m.body], {m.index: shift}))
             self.client.resetBasePositionAndOrientation(m.body, (m.position + end).tolist(), m.orientation)
         return best
 
@@ -269,8 +279,9 @@ class Scene:
         ``(index in world.obstacles, signed distance in m)`` sorted by index.
 
         A compound body that touches is resolved child by child with temporary bodies, so each obstacle
-        is named on its own.  As everywhere, a robot part inside a closed mesh is not seen (module doc;
-        :mod:`navstack.sim.mesh_inside` tells the start check).
+        is named on its own; a primitive PyBullet sees within :data:`MARGIN` is measured exactly, so a
+        contact its rounded corners hide is named too.  As everywhere, a robot part inside a closed mesh is
+        not seen (module doc; :mod:`navstack.sim.mesh_inside` tells the start check).
         """
         cl = self.client
         out: dict[int, float] = {}
@@ -290,6 +301,9 @@ class Scene:
                     cl.removeBody(tmp)
                 if di <= 0.0:
                     out[i] = di
+        for i, d in self._exact_near(robot_id, self.body_ids).items():  # what PyBullet's rounding hides
+            if d <= 0.0:
+                out[i] = min(d, out.get(i, d))
         return sorted(out.items())
 
     def clearance(self, robot_id: int, max_distance: float = 1.0,
@@ -306,6 +320,9 @@ class Scene:
         each body's distance from below: a threshold below every bound is not tried, and a body whose bound
         is not below the threshold is not asked (it cannot report a closer point).  The result is the
         same number; obstacles far from the robot then cost one box test each.
+
+        A result in (0, :data:`MARGIN`] is computed again exactly (:meth:`_sharpen`): PyBullet's rounded box
+        corners, edges and cylinder rims read up to 0.73 mm high, which could hide a contact.
         """
         try:
             dmax = float(max_distance)
@@ -335,21 +352,51 @@ class Scene:
                         if pt[8] < best:
                             best = pt[8]
             if best < d:
-                return float(best)
+                near = [b for b, g in zip(bodies, bound, strict=True) if g < MARGIN]
+                return self._sharpen(robot_id, float(best), near)
         return dmax
+
+    def _sharpen(self, robot_id: int, best: float, bodies: Sequence[int],
+                 shift: dict[int, np.ndarray] | None = None) -> float:
+        """``best``, PyBullet's smallest distance (m) to ``bodies``, made exact when it is in (0, :data:`MARGIN`]:
+        there PyBullet's rounded box corners, edges and cylinder rims may hide a contact
+        (:mod:`navstack.sim.exact_distance`).  ``shift``: obstacle index -> its translation (m), for a mover
+        that :meth:`swept_clearance` has placed elsewhere than :meth:`update` did."""
+        if not 0.0 < best <= MARGIN:
+            return best
+        return min(best, min(self._exact_near(robot_id, bodies, shift).values(), default=best))
+
+    def _exact_near(self, robot_id: int, bodies: Sequence[int],
+                    shift: dict[int, np.ndarray] | None = None) -> dict[int, float]:
+        """Obstacle index -> exact signed distance (m) to the links of ``robot_id`` that PyBullet sees within
+        :data:`MARGIN` of its body, for each primitive in ``bodies``.  Links that are not capsules or spheres,
+        and meshes, are left to PyBullet (not in the result)."""
+        out: dict[int, float] = {}
+        moved = {m.index: m.motion.displacement(self.time) for m in self.movers} | (shift or {})
+        for b in bodies:
+            links = sorted({pt[3] for pt in self.client.getClosestPoints(robot_id, b, MARGIN)})
+            caps = _link_capsules(self.client, robot_id, links, self._capsules) if links else None
+            if caps is None:
+                continue
+            lo = np.minimum(caps[0], caps[1]).min(axis=0) - caps[2].max()
+            hi = np.maximum(caps[0], caps[1]).max(axis=0) + caps[2].max()
+            for i, body in enumerate(self.obstacle_body):
+                o = self.world.obstacles[i]
+                if body != b or isinstance(o, Mesh) or (self.boxes is not None and i not in moved and (
+                        np.any(self.boxes[0][i] - hi > MARGIN) or np.any(lo - self.boxes[1][i] > MARGIN))):
+                    continue  # not this body's, or a mesh, or its box is farther than MARGIN from the links'
+                out[i] = float(np.min(capsule_distance(o, *caps, shift=moved.get(i))))
+        return out
 
     def in_contact(self, robot_id: int) -> bool:
         """True if any link of ``robot_id`` touches or penetrates an obstacle (distance <= 0 m), judged
-        from the last step's contact points and from ``getClosestPoints`` at zero distance."""
+        from the last step's contact points and from :meth:`touching`."""
         cl = self.client
         for b in self.body_ids:
             for pt in cl.getContactPoints(robot_id, b):
                 if pt[8] <= 0.0:
                     return True
-            for pt in cl.getClosestPoints(robot_id, b, 0.0):
-                if pt[8] <= 0.0:
-                    return True
-        return False
+        return bool(self.touching(robot_id))
 
     def remove(self) -> None:
         """Remove the obstacle bodies from the client (the scene is unusable afterwards)."""
@@ -414,6 +461,38 @@ def _obstacle_boxes(client: Any, world: World, body_of: Sequence[int]) -> tuple[
             a, b = client.getAABB(body_of[i])
             lo[i], hi[i] = a, b
     return lo, hi
+
+
+def _link_capsules(client: Any, body: int, links: Sequence[int],
+                   cache: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, float] | None],
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The world segments ``(a, b)`` ((K, 3) [m]) and radii ((K,) [m]) of the collision capsules (a sphere is
+    one of length 0) of ``links`` of ``body`` (-1: its base), from PyBullet's shape data and link states;
+    None if none of them is a lone capsule or sphere."""
+    a, b, r = [], [], []
+    for link in links:
+        if (body, link) not in cache:
+            shapes = client.getCollisionShapeData(body, link)
+            geom = shapes[0] if len(shapes) == 1 else None
+            if geom is not None and geom[2] in (p.GEOM_CAPSULE, p.GEOM_SPHERE):
+                capsule = geom[2] == p.GEOM_CAPSULE
+                half = Rotation.from_quat(geom[6]).apply([0.0, 0.0, geom[3][0] / 2.0 if capsule else 0.0])
+                centre = np.asarray(geom[5], dtype=np.float64)
+                cache[(body, link)] = (centre - half, centre + half, float(geom[3][1] if capsule else geom[3][0]))
+            else:
+                cache[(body, link)] = None
+        local = cache[(body, link)]
+        if local is None:
+            continue
+        if link == -1:
+            pos, orn = client.getBasePositionAndOrientation(body)
+        else:
+            pos, orn = client.getLinkState(body, link, computeForwardKinematics=1)[:2]
+        rot = Rotation.from_quat(orn)
+        a.append(rot.apply(local[0]) + pos)
+        b.append(rot.apply(local[1]) + pos)
+        r.append(local[2])
+    return (np.array(a), np.array(b), np.array(r)) if r else None
 
 
 def _min_distance(client: Any, robot_id: int, body: int) -> float:
