@@ -389,12 +389,9 @@ def _probe_boxes(center, radius: float = R_PROBE):
     return c - radius, c + radius
 
 
-def test_swept_clearance_sees_a_graze_between_two_control_steps(client):
-    """A small sphere crossing at 0.5 m/s past the probe, 0.5 mm deep for 12 mm of its path: 17 mm between the
-    control-step looks at t0 and t1, midway between which it is closest; closed form: h - r - R_PROBE."""
-    h, r, v, dt = R_PROBE + 0.005 - 0.0005, 0.005, 0.5, 1 / 30
-    s = Sphere(center=[-v * dt / 2, h, 0.0], radius=r, motion=LinearMotion(velocity=[v, 0.0, 0.0]))
-    scene = Scene.build(client, world_of(s))
+def _looks_at_both_ends(client, mover, dt: float):
+    """A scene of ``mover`` and the probe at the origin; the probe's clearance at t = 0 and t = dt (s)."""
+    scene = Scene.build(client, world_of(mover))
     probe = make_probe(client)
     place(client, probe, [0.0, 0.0, 0.0])
     at_ends = []
@@ -402,6 +399,15 @@ def test_swept_clearance_sees_a_graze_between_two_control_steps(client):
         scene.update(t)
         client.performCollisionDetection()
         at_ends.append(scene.clearance(probe))
+    return scene, probe, at_ends
+
+
+def test_swept_clearance_sees_a_graze_between_two_control_steps(client):
+    """A small sphere crossing at 0.5 m/s past the probe, 0.5 mm deep for 12 mm of its path: 17 mm between the
+    control-step looks at t0 and t1, midway between which it is closest; closed form: h - r - R_PROBE."""
+    h, r, v, dt = R_PROBE + 0.005 - 0.0005, 0.005, 0.5, 1 / 30
+    s = Sphere(center=[-v * dt / 2, h, 0.0], radius=r, motion=LinearMotion(velocity=[v, 0.0, 0.0]))
+    scene, probe, at_ends = _looks_at_both_ends(client, s, dt)
     assert min(at_ends) > 0.0  # neither look sees the contact
     swept = scene.swept_clearance(probe, 0.0, dt, min(at_ends), _probe_boxes([0.0, 0.0, 0.0]))
     assert swept == pytest.approx(h - r - R_PROBE, abs=1e-5)  # -0.5 mm, to within the sampling (1 mm apart)
@@ -505,14 +511,7 @@ def test_swept_clearance_is_exact_at_a_moving_box_edge(client):
     h, depth, v, dt = 0.05, 0.3e-3, 0.5, 1 / 30
     b = Box(center=[-v * dt / 2, R_PROBE - depth + h * np.sqrt(2), 0.0], half_extents=[h, h, h],
             rpy=[0.0, 0.0, np.pi / 4], motion=LinearMotion(velocity=[v, 0.0, 0.0]))
-    scene = Scene.build(client, world_of(b))
-    probe = make_probe(client)
-    place(client, probe, [0.0, 0.0, 0.0])
-    at_ends = []
-    for t in (0.0, dt):
-        scene.update(t)
-        client.performCollisionDetection()
-        at_ends.append(scene.clearance(probe))
+    scene, probe, at_ends = _looks_at_both_ends(client, b, dt)
     assert min(at_ends) > MARGIN
     swept = scene.swept_clearance(probe, 0.0, dt, min(at_ends), _probe_boxes([0.0, 0.0, 0.0]))
     assert swept == pytest.approx(-depth, abs=1e-5)  # to within the 1 mm sampling
