@@ -470,10 +470,13 @@ class _Simulation:
         origins = F[1:22, :3, 3] @ self.R0.T + self.p0  # frames 1..21 in the world
         tip = self._to_world(F[21, :3, 3])
         boxes = self.body.link_boxes(origins)
-        clearance = self.scene.clearance(self.body.body_id, self.cfg.clearance_horizon, robot_boxes=boxes)
+        capsules = self.body.capsules(origins)
+        record = min(self.min_clearance, self.cfg.clearance_horizon)  # exact below it: min_clearance is exact
+        clearance = self.scene.clearance(self.body.body_id, self.cfg.clearance_horizon, boxes, record, capsules)
         if self.scene.movers and self.steps:  # and while they moved since the last control step
             t = self.steps * self.dt
-            clearance = self.scene.swept_clearance(self.body.body_id, t - self.dt, t, clearance, boxes)
+            clearance = self.scene.swept_clearance(self.body.body_id, t - self.dt, t, clearance, boxes, record,
+                                                   capsules)
         self.min_clearance = min(self.min_clearance, clearance)
         if clearance <= 0.0:
             self.contacts += 1

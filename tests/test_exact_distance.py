@@ -9,7 +9,14 @@ import pytest
 from pybullet_utils import bullet_client
 from scipy.spatial.transform import Rotation
 
-from navstack.sim.exact_distance import MARGIN, capsule_distance, signed_distance
+from navstack.sim.exact_distance import (
+    MARGIN,
+    capsule_distance,
+    capsule_distances,
+    member_distances,
+    primitive_row,
+    signed_distance,
+)
 from navstack.world import Box, Cylinder, Mesh, Sphere
 
 BOX = Box(center=[0.1, 0.2, 0.3], half_extents=[0.2, 0.1, 0.3], rpy=[0.3, -0.5, 1.1])
@@ -95,3 +102,34 @@ def test_against_pybullet_exact_on_faces_and_spheres_never_more_than_its_roundin
         assert exact_faces["sphere"] > 50 and exact_faces["box"] > 20
     finally:
         c.disconnect()
+
+
+def test_the_compiled_distances_equal_the_numpy_reference():
+    """``member_distances`` (what the scene runs) against ``capsule_distance`` (numpy), moved obstacles
+    included; with a small ``within`` a member is either skipped (then truly farther) or exact."""
+    rng = np.random.default_rng(3)
+    shapes = list(SHAPES.values()) * 3
+    rows = np.array([primitive_row(o) for o in shapes])
+    shifts = rng.normal(size=(len(shapes), 3)) * 0.05
+    boxes = []
+    for o, s in zip(shapes, shifts, strict=True):
+        x = np.stack(np.meshgrid(*[np.linspace(-1.0, 1.0, 51)] * 3), axis=-1).reshape(-1, 3)  # 4 cm apart
+        inside = x[signed_distance(o, x, s) <= 0.0]
+        boxes.append((inside.min(axis=0) - 0.04, inside.max(axis=0) + 0.04))  # holds it
+    lo, hi = (np.array(v) for v in zip(*boxes, strict=True))
+    a = rng.normal(size=(4, 3))
+    b = a + rng.normal(size=(4, 3)) * 0.2
+    r = rng.uniform(0.01, 0.05, 4)
+    members = np.arange(len(shapes), dtype=np.int64)
+    reference = np.array([capsule_distance(o, a, b, r, s).min() for o, s in zip(shapes, shifts, strict=True)])
+    out = np.empty(len(shapes))
+    member_distances(rows, members, shifts, lo, hi, a, b, r, 10.0, out)
+    np.testing.assert_allclose(out, reference, atol=1e-12)
+    member_distances(rows, members, shifts, lo, hi, a, b, r, 0.2, out)
+    skipped = np.isinf(out)
+    assert skipped.any() and not skipped.all()
+    np.testing.assert_allclose(out[~skipped], reference[~skipped], atol=1e-12)  # those asked: exact ...
+    assert np.all(reference[skipped] > 0.2)  # ... and those skipped farther than `within`
+    one = np.empty(len(a))
+    capsule_distances(rows[0], shifts[0], a, b, r, one)
+    np.testing.assert_allclose(one, capsule_distance(shapes[0], a, b, r, shifts[0]), atol=1e-12)

@@ -110,6 +110,29 @@ def test_a_path_0_4_mm_into_a_box_corner_is_a_collision_not_a_success():
     assert result.metrics["min_clearance"] == pytest.approx(-0.4e-3, abs=0.05e-3)
 
 
+def test_min_clearance_is_exact_where_pybullet_rounds_a_corner(tmp_path):
+    """The same path 0.3 mm clear of the corner: a success whose min_clearance is the exact one, recomputed
+    here from the recorded joint angles, the kinematics and the numpy reference distances at every step
+    (PyBullet alone read it about 0.73 mm higher)."""
+    from navstack.jpl import jpl_serpentine
+    from navstack.sim.exact_distance import capsule_distance
+
+    world = world_from_dict(world_data(_corner_towards(TIP + [0.2, 0.025, 0.0], [0, 1, 0], -0.3e-3),
+                                       time_limit=20.0))
+    result = run_trial(world, planner="scripted", out_dir=tmp_path)
+    assert result.reason == "reached" and result.metrics["contacts"] == 0
+    q = np.load(tmp_path / "trajectory.npz")["q"]
+    T0, chain = world.robot.base.transform(), jpl_serpentine()
+    origins = np.array([chain.frames(qk)[1:22, :3, 3] for qk in q]) @ T0[:3, :3].T + T0[:3, 3]
+    radii = np.array([world.robot.arm_radius] * 8 + [world.robot.serpentine_radius] * 12)
+    shaped = np.linalg.norm(origins[0, 1:] - origins[0, :-1], axis=1) > 1e-9
+    a, b = origins[:, :-1][:, shaped].reshape(-1, 3), origins[:, 1:][:, shaped].reshape(-1, 3)
+    r = np.tile(radii[shaped], len(q))
+    exact = min(float(capsule_distance(o, a, b, r).min()) for o in world.obstacles)
+    assert 0.0 < exact < 0.3e-3 + 0.05e-3
+    assert result.metrics["min_clearance"] == pytest.approx(exact, abs=1e-9)
+
+
 # ---- 2. time_limit bounded; an exception inside `run` exits 1 -----------------------------------------
 
 def test_time_limit_is_bounded(tmp_path, capsys, no_simulation):

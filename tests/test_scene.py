@@ -9,7 +9,6 @@ import trimesh
 from pybullet_utils import bullet_client
 from scipy.spatial.transform import Rotation
 
-from navstack.sim.exact_distance import MARGIN
 from navstack.sim.scene import MAX_COMPOUND_CHILDREN, Scene, SceneOptions
 from navstack.world import (
     Box,
@@ -512,6 +511,22 @@ def test_swept_clearance_is_exact_at_a_moving_box_edge(client):
     b = Box(center=[-v * dt / 2, R_PROBE - depth + h * np.sqrt(2), 0.0], half_extents=[h, h, h],
             rpy=[0.0, 0.0, np.pi / 4], motion=LinearMotion(velocity=[v, 0.0, 0.0]))
     scene, probe, at_ends = _looks_at_both_ends(client, b, dt)
-    assert min(at_ends) > MARGIN
+    assert min(at_ends) > 0.0  # neither look sees the contact
     swept = scene.swept_clearance(probe, 0.0, dt, min(at_ends), _probe_boxes([0.0, 0.0, 0.0]))
     assert swept == pytest.approx(-depth, abs=1e-5)  # to within the 1 mm sampling
+
+
+def test_exact_below_makes_the_clearance_exact_up_to_it(client):
+    """``exact_below``: a true clearance below it is returned exactly (a trial passes its smallest clearance so
+    far, so its min_clearance is exact); one above it may keep PyBullet's rounding, but is never below it."""
+    box = Box(center=[0.0, 0.0, 0.0], half_extents=[0.2, 0.2, 0.2])
+    cyl = Cylinder(p0=[2.0, 0.0, -0.2], p1=[2.0, 0.0, 0.2], radius=0.2)
+    scene = Scene.build(client, world_of(box, cyl))
+    probe = make_probe(client)
+    e = 0.05
+    for x, true in (([0.2 + e] * 3, np.sqrt(3) * e), ([0.2 + e, 0.2 + e, 0.0], np.sqrt(2) * e),
+                    ([2.2 + e, 0.0, 0.2 + e], np.sqrt(2) * e)):
+        place(client, probe, x)
+        assert scene.clearance(probe, exact_below=0.1) == pytest.approx(true - R_PROBE, abs=1e-9)
+        rounded = scene.clearance(probe, exact_below=0.01)
+        assert rounded >= 0.01 and rounded > true - R_PROBE + 0.3e-3  # PyBullet's, rounded

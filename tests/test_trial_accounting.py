@@ -76,7 +76,7 @@ def clearances(monkeypatch):
     seq: list[float] = []
     calls: list[float] = []
 
-    def fake(self, robot_id, max_distance=1.0, robot_boxes=None):
+    def fake(self, robot_id, max_distance=1.0, robot_boxes=None, exact_below=0.0, robot_capsules=None):
         v = seq[min(len(calls), len(seq) - 1)]
         calls.append(v)
         return v
@@ -344,8 +344,8 @@ def test_contact_is_measured_not_simulated(hold_planner, monkeypatch, frame):
     seen = []
     original = Scene.clearance
 
-    def record(self, robot_id, max_distance=1.0, robot_boxes=None):
-        seen.append(original(self, robot_id, max_distance, robot_boxes=robot_boxes))
+    def record(self, robot_id, *args, **kwargs):
+        seen.append(original(self, robot_id, *args, **kwargs))
         return seen[-1]
 
     monkeypatch.setattr(Scene, "clearance", record)

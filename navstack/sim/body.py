@@ -213,6 +213,17 @@ class RobotBody:
         a, b = origins[:-1], origins[1:]
         return np.minimum(a, b) - r, np.maximum(a, b) + r
 
+    def capsules(self, origins: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                                             NDArray[np.float64]]:
+        """The robot's collision capsules ``(a, b, r)`` from the world positions ``origins`` (21, 3) [m] of the
+        origins of DH frames 1..21: segments ``a[k]``-``b[k]`` (K, 3) [m], radii ``r[k]`` (K,) [m], one per link
+        that has a shape (interfaces.md section 1).  For :meth:`navstack.sim.scene.Scene.clearance`."""
+        if self.link_radii is None:
+            raise ValueError("RobotBody.capsules needs link_radii (a body made by RobotBody.build)")
+        r = self.link_radii[:len(origins) - 1]
+        shaped = r > 0.0
+        return origins[:-1][shaped], origins[1:][shaped], r[shaped]
+
     def reset(self, q: ArrayLike, qd: ArrayLike | None = None) -> None:
         """Teleport the joints to ``q`` (velocities ``qd``, default 0)."""
         q = self.chain.check(q)

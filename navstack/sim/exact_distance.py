@@ -7,13 +7,18 @@ exceeds it by at most (sqrt 3 - 1) x 1 mm = 0.73 mm at a box corner, 0.41 mm at 
 spheres and capsules are exact).  A link that far into a corner touches the obstacle unseen.  Setting the
 margin to zero is not an option: PyBullet's rays then miss boxes altogether.
 
-So :class:`navstack.sim.scene.Scene` asks this module again whenever PyBullet reports a link within
-:data:`MARGIN` of a primitive: a capsule (segment ``a``-``b`` swept by radius ``r``) is at signed distance
+So :class:`navstack.sim.scene.Scene` measures again whenever PyBullet's distance is within :data:`MARGIN` of
+0 (a contact could hide there) or of the trial's smallest clearance so far (which makes ``min_clearance``
+exact): a capsule (segment ``a``-``b`` swept by radius ``r``) is at signed distance
 ``min over t in [0, 1] of sdf(a + t (b - a)) - r`` from a convex obstacle, where ``sdf`` is the obstacle's
 signed distance function (negative inside).  ``sdf`` of a convex set is convex along any line, so a golden
-section search finds that minimum; :data:`GOLDEN_STEPS` steps narrow ``t`` to below 1e-12 of the segment.
+section search finds that minimum; :data:`GOLDEN_STEPS` steps narrow ``t`` to below 1e-13 of the segment.
 For a capsule that crosses the obstacle the value is negative (the deepest of its balls, less ``r``), which
 is all a contact needs.
+
+:func:`signed_distance` and :func:`capsule_distance` are the numpy reference (tests check them against closed
+forms, dense sampling and PyBullet's exact faces); :func:`capsule_distances` and :func:`member_distances` are
+the same arithmetic compiled, which the scene runs (about 2 us for five capsules against 1 ms in numpy).
 
 Geometry as :mod:`navstack.sim.scene` builds it (metres): a box is ``center``, ``half_extents`` and the
 rotation ``rpy`` (roll X, pitch Y, yaw Z about the world axes); a cylinder is flat-ended from ``p0`` to
@@ -29,6 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
+from navstack.jit import kernel
 from navstack.world import Box, Cylinder, Obstacle, Sphere
 
 MARGIN = 1e-3
@@ -102,3 +108,108 @@ def capsule_distance(o: Obstacle, a: NDArray[np.float64], b: NDArray[np.float64]
         f1, f2 = np.where(left, f_new, f2), np.where(left, f1, f_new)
     best = np.minimum(np.minimum(f1, f2), np.minimum(f(np.zeros(len(a))), f(np.ones(len(a)))))
     return best - np.asarray(r, dtype=np.float64)
+
+
+# ---- compiled: the same distances for the scene's per-step checks ----------------------------------------
+
+SPHERE, BOX, CYLINDER = 0, 1, 2
+"""Kinds in :func:`primitive_row`'s rows."""
+
+ROW = 17
+"""A primitive's row: kind, centre (3), rotation R (3 x 3, row-major; world = R local), sizes (3)."""
+
+
+def primitive_row(o: Obstacle) -> NDArray[np.float64]:
+    """``o`` (box, cylinder or sphere) as one (:data:`ROW`,) row for :func:`capsule_distances`: a sphere's
+    sizes are (radius, 0, 0), a box's its half extents, a cylinder's (radius, 0, half length) about its
+    local z axis (the axis from ``p0`` to ``p1``)."""
+    row = np.zeros(ROW)
+    if isinstance(o, Sphere):
+        row[0], row[1:4], row[4:13], row[13] = SPHERE, o.center, np.eye(3).ravel(), o.radius
+    elif isinstance(o, Box):
+        row[0], row[1:4], row[13:16] = BOX, o.center, o.half_extents
+        row[4:13] = Rotation.from_euler("xyz", o.rpy).as_matrix().ravel()
+    elif isinstance(o, Cylinder):
+        z = (o.p1 - o.p0) / o.length
+        x = np.cross(z, [1.0, 0.0, 0.0] if abs(z[0]) < 0.9 else [0.0, 1.0, 0.0])
+        x /= np.linalg.norm(x)
+        row[0], row[1:4], row[13], row[15] = CYLINDER, (o.p0 + o.p1) / 2.0, o.radius, o.length / 2.0
+        row[4:13] = np.column_stack([x, np.cross(z, x), z]).ravel()
+    else:
+        raise TypeError(f"primitive_row: not a primitive obstacle: {type(o).__name__}")
+    return row
+
+
+@kernel(inline="always")
+def _sdf_row(row, sx, sy, sz, x, y, z):  # pragma: no cover - jitted
+    """Signed distance (m) from the point (x, y, z) to the primitive ``row`` moved by (sx, sy, sz)."""
+    dx, dy, dz = x - row[1] - sx, y - row[2] - sy, z - row[3] - sz
+    kind = row[0]
+    if kind == SPHERE:
+        return math.sqrt(dx * dx + dy * dy + dz * dz) - row[13]
+    lx = row[4] * dx + row[7] * dy + row[10] * dz  # R^T d
+    ly = row[5] * dx + row[8] * dy + row[11] * dz
+    lz = row[6] * dx + row[9] * dy + row[12] * dz
+    if kind == BOX:
+        qx, qy, qz = abs(lx) - row[13], abs(ly) - row[14], abs(lz) - row[15]
+        ox, oy, oz = max(qx, 0.0), max(qy, 0.0), max(qz, 0.0)
+        return math.sqrt(ox * ox + oy * oy + oz * oz) + min(max(qx, max(qy, qz)), 0.0)
+    qr, qa = math.sqrt(lx * lx + ly * ly) - row[13], abs(lz) - row[15]
+    o_r, o_a = max(qr, 0.0), max(qa, 0.0)
+    return math.sqrt(o_r * o_r + o_a * o_a) + min(max(qr, qa), 0.0)
+
+
+@kernel(inline="always")
+def _capsule_row(row, sx, sy, sz, ax, ay, az, dx, dy, dz):  # pragma: no cover - jitted
+    """min over t in [0, 1] of the signed distance (m) from a + t d to the primitive ``row`` moved by s: the
+    golden section of :func:`capsule_distance`, on one segment."""
+    lo, hi = 0.0, 1.0
+    x1, x2 = hi - _INV_PHI, lo + _INV_PHI
+    f1 = _sdf_row(row, sx, sy, sz, ax + x1 * dx, ay + x1 * dy, az + x1 * dz)
+    f2 = _sdf_row(row, sx, sy, sz, ax + x2 * dx, ay + x2 * dy, az + x2 * dz)
+    for _ in range(GOLDEN_STEPS):
+        if f1 <= f2:
+            hi, x2, f2 = x2, x1, f1
+            x1 = hi - _INV_PHI * (hi - lo)
+            f1 = _sdf_row(row, sx, sy, sz, ax + x1 * dx, ay + x1 * dy, az + x1 * dz)
+        else:
+            lo, x1, f1 = x1, x2, f2
+            x2 = lo + _INV_PHI * (hi - lo)
+            f2 = _sdf_row(row, sx, sy, sz, ax + x2 * dx, ay + x2 * dy, az + x2 * dz)
+    best = min(f1, f2)
+    best = min(best, _sdf_row(row, sx, sy, sz, ax, ay, az))
+    return min(best, _sdf_row(row, sx, sy, sz, ax + dx, ay + dy, az + dz))
+
+
+@kernel
+def capsule_distances(row, shift, a, b, r, out):  # pragma: no cover - jitted
+    """``out[k]`` = signed distance (m) between capsule k (segment ``a[k]``-``b[k]`` (K, 3) [m], radius ``r[k]``)
+    and the primitive ``row`` (:func:`primitive_row`) moved by ``shift`` (3,) [m]: :func:`capsule_distance`,
+    compiled."""
+    for k in range(a.shape[0]):
+        out[k] = _capsule_row(row, shift[0], shift[1], shift[2], a[k, 0], a[k, 1], a[k, 2],
+                              b[k, 0] - a[k, 0], b[k, 1] - a[k, 1], b[k, 2] - a[k, 2]) - r[k]
+
+
+@kernel
+def member_distances(rows, members, shifts, lo, hi, a, b, r, within, out):  # pragma: no cover - jitted
+    """``out[j]`` = the smallest signed distance (m) between primitive ``members[j]`` (a row of ``rows``
+    (N, ROW), moved by ``shifts[members[j]]`` (N, 3) [m], held in the world box ``lo[.]``-``hi[.]`` (N, 3) [m])
+    and the capsules ``a[k]``-``b[k]`` (K, 3) [m] of radii ``r[k]`` whose boxes are within ``within`` (m) of
+    its box on every axis; ``inf`` if none is.  The distance to a capsule whose box is farther is more than
+    ``within``, so the minimum is exact wherever it is below ``within``."""
+    for j in range(members.shape[0]):
+        i = members[j]
+        best = np.inf
+        for k in range(a.shape[0]):
+            rk = r[k]
+            far = False
+            for ax in range(3):
+                far = far or (min(a[k, ax], b[k, ax]) - rk - hi[i, ax] > within
+                              or lo[i, ax] - max(a[k, ax], b[k, ax]) - rk > within)
+            if far:
+                continue
+            d = _capsule_row(rows[i], shifts[i, 0], shifts[i, 1], shifts[i, 2], a[k, 0], a[k, 1], a[k, 2],
+                             b[k, 0] - a[k, 0], b[k, 1] - a[k, 1], b[k, 2] - a[k, 2]) - rk
+            best = min(best, d)
+        out[j] = best

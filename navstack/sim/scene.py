@@ -39,8 +39,9 @@ PyBullet limitations found (pybullet 3.2.7):
 * collision shapes ask for a cylinder's ``height``, visual shapes for its ``length``;
 * boxes and cylinders get a 1 mm collision margin that rounds their corners, edges and rims, so PyBullet's
   distance there reads up to 0.73 mm more than the true one (zero margin would make rays miss boxes): every
-  distance PyBullet reports within that margin is computed again exactly (:mod:`navstack.sim.exact_distance`),
-  so no contact hides in the rounding; above it, the clearance may read up to 0.73 mm high.
+  distance PyBullet reports within that margin of 0 (or of ``exact_below``, a trial's smallest clearance so
+  far) is computed again exactly (:mod:`navstack.sim.exact_distance`), so no contact hides in the rounding
+  and a trial's ``min_clearance`` is exact.
 """
 
 from __future__ import annotations
@@ -56,8 +57,13 @@ from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
 from navstack.sim._bullet import pybullet as p
-from navstack.sim.exact_distance import MARGIN, capsule_distance
+from navstack.sim.exact_distance import MARGIN, ROW, member_distances, primitive_row
 from navstack.world import Box, Cylinder, Mesh, Motion, Obstacle, Sphere, World, WorldError
+
+Capsules = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+"""A robot's collision capsules ``(a, b, r)``: segments ``a[k]``-``b[k]`` (K, 3) [m] of radii ``r[k]`` (K,) [m]."""
+
+_NONE = np.zeros(0, dtype=np.int64)
 
 MAX_COMPOUND_CHILDREN = 16
 """PyBullet keeps at most this many shapes in one ``createCollisionShapeArray`` / visual array."""
@@ -178,9 +184,17 @@ class Scene:
                                                                                compare=False, repr=False)
     _body_rank: NDArray[np.int64] | None = field(default=None, init=False, compare=False, repr=False)
     """For each obstacle, the position of its body in :attr:`body_ids`."""
-    _capsules: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, float] | None] = field(
+    _capsules: dict[int, list[tuple[int, np.ndarray, np.ndarray, float]]] = field(
         default_factory=dict, init=False, compare=False, repr=False)
-    """``(body, link)`` -> the link's collision capsule in its own frame (:func:`_link_capsules`' cache)."""
+    """robot body -> its links' collision capsules in their own frames (:func:`_link_capsules`' cache)."""
+    _rows: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, ROW)), init=False, compare=False,
+                                       repr=False)
+    """(len(world.obstacles), ROW): each primitive for :func:`member_distances` (NaN rows: meshes)."""
+    _shifts: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)), init=False, compare=False,
+                                         repr=False)
+    """(len(world.obstacles), 3) [m]: each obstacle's translation from its file pose now (movers')."""
+    _primitives: dict[int, NDArray[np.int64]] = field(default_factory=dict, init=False, compare=False, repr=False)
+    """body -> the indices in ``world.obstacles`` of the primitives it holds."""
 
     @classmethod
     def build(cls, client: Any, world: World, options: SceneOptions | None = None) -> Scene:
@@ -222,6 +236,12 @@ class Scene:
                     options=opts, movers=tuple(movers), boxes=_obstacle_boxes(client, world, body_of))
         scene._file_boxes = (scene.boxes[0].copy(), scene.boxes[1].copy())
         scene._body_rank = np.array([bodies.index(b) for b in body_of], dtype=np.int64)
+        scene._rows = np.array([np.full(ROW, np.nan) if isinstance(o, Mesh) else primitive_row(o)
+                                for o in world.obstacles]).reshape(-1, ROW)
+        scene._shifts = np.zeros((len(world.obstacles), 3))
+        for b in bodies:
+            scene._primitives[b] = np.array([i for i, o in enumerate(world.obstacles)
+                                             if body_of[i] == b and not isinstance(o, Mesh)], dtype=np.int64)
         scene.update(0.0)
         return scene
 
@@ -234,13 +254,15 @@ class Scene:
             shift = m.motion.displacement(self.time)
             position = m.position + shift
             self.client.resetBasePositionAndOrientation(m.body, position.tolist(), m.orientation)
+            self._shifts[m.index] = shift
             if self.boxes is not None and self._file_boxes is not None:
                 self.boxes[0][m.index] = self._file_boxes[0][m.index] + shift
                 self.boxes[1][m.index] = self._file_boxes[1][m.index] + shift
         return bool(self.movers)
 
     def swept_clearance(self, robot_id: int, t0: float, t1: float, below: float,
-                        robot_boxes: tuple[NDArray[np.float64], NDArray[np.float64]]) -> float:
+                        robot_boxes: tuple[NDArray[np.float64], NDArray[np.float64]],
+                        exact_below: float = 0.0, robot_capsules: Capsules | None = None) -> float:
         """The smallest distance (m) from ``robot_id`` to the moving obstacles while they move from simulated
         time ``t0`` to ``t1`` (s), the robot held where it is now; ``below`` if none comes closer than that.
 
@@ -248,8 +270,8 @@ class Scene:
         at 0.5 m/s and 30 Hz a mover moves 17 mm between two looks, enough to graze a link and leave unseen.
         Here each mover is placed at times between ``t0`` and ``t1`` (the ends excluded: :meth:`clearance`
         sees those) no more than :data:`SWEEP_STEP` of its motion apart, the robot's distance asked at each,
-        and the mover put back where :meth:`update` placed it at ``t1``; distances within :data:`MARGIN` are
-        made exact as in :meth:`clearance`.  A mover whose box over the interval
+        and the mover put back where :meth:`update` placed it at ``t1``.  Exact below ``exact_below`` (m), as
+        :meth:`clearance` (``robot_capsules`` as there).  A mover whose box over the interval
         is not within ``below`` of ``robot_boxes`` (``(lo, hi)``, each (L, 3) [m], as for :meth:`clearance`)
         is not asked.  The robot's own motion within the step is not swept (millimetres at most).
         """
@@ -268,19 +290,29 @@ class Scene:
                 continue  # it stays farther than what was already found
             for shift in shifts:
                 self.client.resetBasePositionAndOrientation(m.body, (m.position + shift).tolist(), m.orientation)
-                here = min((pt[8] for pt in self.client.getClosestPoints(robot_id, m.body, max(best, MARGIN))),
-                           default=math.inf)
-                best = min(best, self._sharpen(robot_id, here, [m.body], {m.index: shift}))
+                reach = max(best, 0.0) + MARGIN  # PyBullet's distance may read up to 0.73 mm high
+                here = min((pt[8] for pt in self.client.getClosestPoints(robot_id, m.body, reach)), default=reach)
+                if here < best + MARGIN:
+                    self._place_exact(m.index, shift)
+                    best = min(best, self._sharpen(robot_id, here, exact_below, robot_capsules, [m.body]))
             self.client.resetBasePositionAndOrientation(m.body, (m.position + end).tolist(), m.orientation)
+            self._place_exact(m.index, end)
         return best
+
+    def _place_exact(self, index: int, shift: NDArray[np.float64]) -> None:
+        """Where the exact distances see obstacle ``index``: translated by ``shift`` (m) from its file pose."""
+        self._shifts[index] = shift
+        if self.boxes is not None and self._file_boxes is not None:
+            self.boxes[0][index] = self._file_boxes[0][index] + shift
+            self.boxes[1][index] = self._file_boxes[1][index] + shift
 
     def touching(self, robot_id: int) -> list[tuple[int, float]]:
         """The obstacles that ``robot_id`` touches or penetrates now (signed distance <= 0), as
         ``(index in world.obstacles, signed distance in m)`` sorted by index.
 
         A compound body that touches is resolved child by child with temporary bodies, so each obstacle
-        is named on its own; a primitive PyBullet sees within :data:`MARGIN` is measured exactly, so a
-        contact its rounded corners hide is named too.  As everywhere, a robot part inside a closed mesh is
+        is named on its own; every primitive within :data:`MARGIN` of a link is measured exactly too, so a
+        contact PyBullet's rounded corners hide is named.  As everywhere, a robot part inside a closed mesh is
         not seen (module doc; :mod:`navstack.sim.mesh_inside` tells the start check).
         """
         cl = self.client
@@ -301,13 +333,14 @@ class Scene:
                     cl.removeBody(tmp)
                 if di <= 0.0:
                     out[i] = di
-        for i, d in self._exact_near(robot_id, self.body_ids).items():  # what PyBullet's rounding hides
-            if d <= 0.0:
+        for i, d in self._exact_distances(_link_capsules(cl, robot_id, self._capsules), self.body_ids, MARGIN):
+            if d <= 0.0:  # what PyBullet's rounding hides
                 out[i] = min(d, out.get(i, d))
         return sorted(out.items())
 
     def clearance(self, robot_id: int, max_distance: float = 1.0,
-                  robot_boxes: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None) -> float:
+                  robot_boxes: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+                  exact_below: float = 0.0, robot_capsules: Capsules | None = None) -> float:
         """Minimum signed distance (m) between any link of ``robot_id`` and any obstacle.
 
         Negative means penetration.  Returns ``max_distance`` when nothing is closer than that.  Uses
@@ -321,8 +354,13 @@ class Scene:
         is not below the threshold is not asked (it cannot report a closer point).  The result is the
         same number; obstacles far from the robot then cost one box test each.
 
-        A result in (0, :data:`MARGIN`] is computed again exactly (:meth:`_sharpen`): PyBullet's rounded box
-        corners, edges and cylinder rims read up to 0.73 mm high, which could hide a contact.
+        PyBullet's rounded box corners, edges and cylinder rims read up to 0.73 mm high, which could hide a
+        contact.  So when PyBullet's smallest distance is below ``max(exact_below, 0)`` + :data:`MARGIN`, every
+        primitive near the robot is measured again exactly (:meth:`_sharpen`): the result is exact whenever the
+        true clearance is below ``exact_below`` (m) or 0 (a contact is never hidden), and otherwise not below
+        ``exact_below``.  A trial passes its smallest clearance so far, which makes its ``min_clearance``
+        exact.  ``robot_capsules``: ``(a, b, r)``, the robot's collision capsules now (segments ``a``-``b``,
+        each (K, 3) [m], radii (K,) [m]); without them they are read from PyBullet.
         """
         try:
             dmax = float(max_distance)
@@ -352,41 +390,31 @@ class Scene:
                         if pt[8] < best:
                             best = pt[8]
             if best < d:
-                near = [b for b, g in zip(bodies, bound, strict=True) if g < MARGIN]
-                return self._sharpen(robot_id, float(best), near)
+                near = [b for b, g in zip(bodies, bound, strict=True) if g < best + MARGIN]
+                return self._sharpen(robot_id, float(best), float(exact_below), robot_capsules, near)
         return dmax
 
-    def _sharpen(self, robot_id: int, best: float, bodies: Sequence[int],
-                 shift: dict[int, np.ndarray] | None = None) -> float:
-        """``best``, PyBullet's smallest distance (m) to ``bodies``, made exact when it is in (0, :data:`MARGIN`]:
-        there PyBullet's rounded box corners, edges and cylinder rims may hide a contact
-        (:mod:`navstack.sim.exact_distance`).  ``shift``: obstacle index -> its translation (m), for a mover
-        that :meth:`swept_clearance` has placed elsewhere than :meth:`update` did."""
-        if not 0.0 < best <= MARGIN:
+    def _sharpen(self, robot_id: int, best: float, exact_below: float, capsules: Capsules | None,
+                 bodies: Sequence[int]) -> float:
+        """``best``, PyBullet's smallest distance (m) to ``bodies``, made exact when the true one could be below
+        ``exact_below`` or 0 (``best`` below their larger + :data:`MARGIN`): the primitives of ``bodies``
+        are measured again against the robot's ``capsules`` (read from PyBullet if None) wherever they may be
+        within ``best`` + :data:`MARGIN` (:mod:`navstack.sim.exact_distance`)."""
+        if not 0.0 < best < max(exact_below, 0.0) + MARGIN:
             return best
-        return min(best, min(self._exact_near(robot_id, bodies, shift).values(), default=best))
+        caps = capsules if capsules is not None else _link_capsules(self.client, robot_id, self._capsules)
+        return min([best] + [d for _, d in self._exact_distances(caps, bodies, best + MARGIN)])
 
-    def _exact_near(self, robot_id: int, bodies: Sequence[int],
-                    shift: dict[int, np.ndarray] | None = None) -> dict[int, float]:
-        """Obstacle index -> exact signed distance (m) to the links of ``robot_id`` that PyBullet sees within
-        :data:`MARGIN` of its body, for each primitive in ``bodies``.  Links that are not capsules or spheres,
-        and meshes, are left to PyBullet (not in the result)."""
-        out: dict[int, float] = {}
-        moved = {m.index: m.motion.displacement(self.time) for m in self.movers} | (shift or {})
-        for b in bodies:
-            links = sorted({pt[3] for pt in self.client.getClosestPoints(robot_id, b, MARGIN)})
-            caps = _link_capsules(self.client, robot_id, links, self._capsules) if links else None
-            if caps is None:
-                continue
-            lo = np.minimum(caps[0], caps[1]).min(axis=0) - caps[2].max()
-            hi = np.maximum(caps[0], caps[1]).max(axis=0) + caps[2].max()
-            for i, body in enumerate(self.obstacle_body):
-                o = self.world.obstacles[i]
-                if body != b or isinstance(o, Mesh) or (self.boxes is not None and i not in moved and (
-                        np.any(self.boxes[0][i] - hi > MARGIN) or np.any(lo - self.boxes[1][i] > MARGIN))):
-                    continue  # not this body's, or a mesh, or its box is farther than MARGIN from the links'
-                out[i] = float(np.min(capsule_distance(o, *caps, shift=moved.get(i))))
-        return out
+    def _exact_distances(self, capsules: Capsules, bodies: Sequence[int], within: float) -> list[tuple[int, float]]:
+        """``(obstacle index, exact signed distance in m)`` of each primitive of ``bodies`` within ``within`` (m)
+        of a capsule's box (the others are farther than ``within``)."""
+        members = [self._primitives.get(b, _NONE) for b in bodies]
+        idx = np.concatenate(members) if members else _NONE
+        if not len(idx) or self.boxes is None or not len(capsules[2]):
+            return []
+        out = np.empty(len(idx))
+        member_distances(self._rows, idx, self._shifts, self.boxes[0], self.boxes[1], *capsules, within, out)
+        return [(int(i), float(d)) for i, d in zip(idx, out, strict=True) if d < math.inf]
 
     def in_contact(self, robot_id: int) -> bool:
         """True if any link of ``robot_id`` touches or penetrates an obstacle (distance <= 0 m), judged
@@ -463,36 +491,33 @@ def _obstacle_boxes(client: Any, world: World, body_of: Sequence[int]) -> tuple[
     return lo, hi
 
 
-def _link_capsules(client: Any, body: int, links: Sequence[int],
-                   cache: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, float] | None],
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """The world segments ``(a, b)`` ((K, 3) [m]) and radii ((K,) [m]) of the collision capsules (a sphere is
-    one of length 0) of ``links`` of ``body`` (-1: its base), from PyBullet's shape data and link states;
-    None if none of them is a lone capsule or sphere."""
-    a, b, r = [], [], []
-    for link in links:
-        if (body, link) not in cache:
+def _link_capsules(client: Any, body: int, cache: dict[int, list[tuple[int, np.ndarray, np.ndarray, float]]],
+                   ) -> Capsules:
+    """The world segments ``(a, b)`` ((K, 3) [m]) and radii ((K,) [m]) of the collision capsules of ``body``'s
+    links and base (a sphere is one of length 0; links of other shapes are left out), from PyBullet's shape
+    data (read once into ``cache``) and its link states now."""
+    if body not in cache:
+        cache[body] = []
+        for link in range(-1, client.getNumJoints(body)):
             shapes = client.getCollisionShapeData(body, link)
-            geom = shapes[0] if len(shapes) == 1 else None
-            if geom is not None and geom[2] in (p.GEOM_CAPSULE, p.GEOM_SPHERE):
-                capsule = geom[2] == p.GEOM_CAPSULE
-                half = Rotation.from_quat(geom[6]).apply([0.0, 0.0, geom[3][0] / 2.0 if capsule else 0.0])
-                centre = np.asarray(geom[5], dtype=np.float64)
-                cache[(body, link)] = (centre - half, centre + half, float(geom[3][1] if capsule else geom[3][0]))
-            else:
-                cache[(body, link)] = None
-        local = cache[(body, link)]
-        if local is None:
-            continue
-        if link == -1:
-            pos, orn = client.getBasePositionAndOrientation(body)
-        else:
-            pos, orn = client.getLinkState(body, link, computeForwardKinematics=1)[:2]
+            if len(shapes) != 1 or shapes[0][2] not in (p.GEOM_CAPSULE, p.GEOM_SPHERE):
+                continue
+            geom = shapes[0]
+            capsule = geom[2] == p.GEOM_CAPSULE
+            half = Rotation.from_quat(geom[6]).apply([0.0, 0.0, geom[3][0] / 2.0 if capsule else 0.0])
+            centre = np.asarray(geom[5], dtype=np.float64)
+            cache[body].append((link, centre - half, centre + half, float(geom[3][1] if capsule else geom[3][0])))
+    a, b, r = [], [], []
+    links = [link for link, *_ in cache[body] if link >= 0]
+    states = {} if not links else dict(zip(links, client.getLinkStates(body, links, computeForwardKinematics=1),
+                                           strict=True))
+    for link, la, lb, radius in cache[body]:
+        pos, orn = client.getBasePositionAndOrientation(body) if link < 0 else states[link][:2]
         rot = Rotation.from_quat(orn)
-        a.append(rot.apply(local[0]) + pos)
-        b.append(rot.apply(local[1]) + pos)
-        r.append(local[2])
-    return (np.array(a), np.array(b), np.array(r)) if r else None
+        a.append(rot.apply(la) + pos)
+        b.append(rot.apply(lb) + pos)
+        r.append(radius)
+    return np.array(a).reshape(-1, 3), np.array(b).reshape(-1, 3), np.array(r, dtype=np.float64)
 
 
 def _min_distance(client: Any, robot_id: int, body: int) -> float:
