@@ -37,6 +37,7 @@ def test_signed_distance_closed_forms():
     rim = signed_distance(cyl, np.array([0.0, 0.5 + e, 1.0 + e]), shift=np.array([0.0, 0.0, 2.0]))
     assert rim == pytest.approx(e, abs=1e-15)  # moved up by 2 m, the point is beside its side, not its rim
     np.testing.assert_allclose(signed_distance(SPHERE, np.array([[0.0, -0.1, 0.35]])), [0.1], atol=1e-15)
+    assert signed_distance(SPHERE, np.array([0.0, -0.1, 0.35])) == pytest.approx(0.1, abs=1e-15)  # one point
     with pytest.raises(TypeError, match="Mesh"):
         signed_distance(Mesh(path="x.obj"), np.zeros(3))
 
@@ -108,7 +109,10 @@ def test_the_compiled_distances_equal_the_numpy_reference():
     """``member_distances`` (what the scene runs) against ``capsule_distance`` (numpy), moved obstacles
     included; with a small ``within`` a member is either skipped (then truly farther) or exact."""
     rng = np.random.default_rng(3)
-    shapes = list(SHAPES.values()) * 3
+    axes = ([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [-1.0, 0.2, 0.0])
+    members = [Cylinder(p0=[0.1, -0.2, 0.0], p1=(np.array([0.1, -0.2, 0.0]) + 0.4 * np.array(u)).tolist(),
+                        radius=0.15) for u in axes]  # a truss's members run along the axes
+    shapes = list(SHAPES.values()) * 3 + members
     rows = np.array([primitive_row(o) for o in shapes])
     shifts = rng.normal(size=(len(shapes), 3)) * 0.05
     boxes = []
@@ -117,19 +121,24 @@ def test_the_compiled_distances_equal_the_numpy_reference():
         inside = x[signed_distance(o, x, s) <= 0.0]
         boxes.append((inside.min(axis=0) - 0.04, inside.max(axis=0) + 0.04))  # holds it
     lo, hi = (np.array(v) for v in zip(*boxes, strict=True))
-    a = rng.normal(size=(4, 3))
-    b = a + rng.normal(size=(4, 3)) * 0.2
-    r = rng.uniform(0.01, 0.05, 4)
-    members = np.arange(len(shapes), dtype=np.int64)
+    a = np.vstack([rng.normal(size=(4, 3)), rng.normal(size=(4, 3)) * 0.2])  # far, and crossing the shapes
+    b = a + rng.normal(size=(8, 3)) * 0.2
+    r = rng.uniform(0.01, 0.05, 8)
+    index = np.arange(len(shapes), dtype=np.int64)
     reference = np.array([capsule_distance(o, a, b, r, s).min() for o, s in zip(shapes, shifts, strict=True)])
     out = np.empty(len(shapes))
-    member_distances(rows, members, shifts, lo, hi, a, b, r, 10.0, out)
+    member_distances(rows, index, shifts, lo, hi, a, b, r, 10.0, out)
     np.testing.assert_allclose(out, reference, atol=1e-12)
-    member_distances(rows, members, shifts, lo, hi, a, b, r, 0.2, out)
+    assert np.sum(reference < 0) >= 5  # insides compared too
+    far = 4  # with only the far capsules, some members are skipped
+    reference = np.array([capsule_distance(o, a[:far], b[:far], r[:far], s).min()
+                          for o, s in zip(shapes, shifts, strict=True)])
+    within = float(np.min(reference)) + 0.05
+    member_distances(rows, index, shifts, lo, hi, a[:far], b[:far], r[:far], within, out)
     skipped = np.isinf(out)
     assert skipped.any() and not skipped.all()
     np.testing.assert_allclose(out[~skipped], reference[~skipped], atol=1e-12)  # those asked: exact ...
-    assert np.all(reference[skipped] > 0.2)  # ... and those skipped farther than `within`
+    assert np.all(reference[skipped] > within)  # ... and those skipped farther than `within`
     one = np.empty(len(a))
     capsule_distances(rows[0], shifts[0], a, b, r, one)
     np.testing.assert_allclose(one, capsule_distance(shapes[0], a, b, r, shifts[0]), atol=1e-12)
