@@ -12,7 +12,6 @@ from scipy.spatial.transform import Rotation
 from navstack.sim.exact_distance import (
     MARGIN,
     capsule_distance,
-    capsule_distances,
     member_distances,
     primitive_row,
     signed_distance,
@@ -139,6 +138,8 @@ def test_the_compiled_distances_equal_the_numpy_reference():
     assert skipped.any() and not skipped.all()
     np.testing.assert_allclose(out[~skipped], reference[~skipped], atol=1e-12)  # those asked: exact ...
     assert np.all(reference[skipped] > within)  # ... and those skipped farther than `within`
-    one = np.empty(len(a))
-    capsule_distances(rows[0], shifts[0], a, b, r, one)
-    np.testing.assert_allclose(one, capsule_distance(shapes[0], a, b, r, shifts[0]), atol=1e-12)
+    one, first = np.empty(1), np.zeros(1, dtype=np.int64)  # capsule by capsule, too
+    for k in range(len(a)):
+        member_distances(rows, first, shifts, lo, hi, a[k:k + 1], b[k:k + 1], r[k:k + 1], 10.0, one)
+        assert one[0] == pytest.approx(capsule_distance(shapes[0], a[k:k + 1], b[k:k + 1], r[k:k + 1],
+                                                        shifts[0])[0], abs=1e-12)

@@ -17,8 +17,8 @@ For a capsule that crosses the obstacle the value is negative (the deepest of it
 is all a contact needs.
 
 :func:`signed_distance` and :func:`capsule_distance` are the numpy reference (tests check them against closed
-forms, dense sampling and PyBullet's exact faces); :func:`capsule_distances` and :func:`member_distances` are
-the same arithmetic compiled, which the scene runs (about 2 us for five capsules against 1 ms in numpy).
+forms, dense sampling and PyBullet's exact faces); :func:`member_distances` is the
+same arithmetic compiled, which the scene runs (about 2 us for five capsules against 1 ms in numpy).
 
 Geometry as :mod:`navstack.sim.scene` builds it (metres): a box is ``center``, ``half_extents`` and the
 rotation ``rpy`` (roll X, pitch Y, yaw Z about the world axes); a cylinder is flat-ended from ``p0`` to
@@ -120,7 +120,7 @@ ROW = 17
 
 
 def primitive_row(o: Obstacle) -> NDArray[np.float64]:
-    """``o`` (box, cylinder or sphere) as one (:data:`ROW`,) row for :func:`capsule_distances`: a sphere's
+    """``o`` (box, cylinder or sphere) as one (:data:`ROW`,) row for :func:`member_distances`: a sphere's
     sizes are (radius, 0, 0), a box's its half extents, a cylinder's (radius, 0, half length) about its
     local z axis (the axis from ``p0`` to ``p1``)."""
     row = np.zeros(ROW)
@@ -179,16 +179,6 @@ def _capsule_row(row, sx, sy, sz, ax, ay, az, dx, dy, dz):  # pragma: no cover -
     best = min(f1, f2)
     best = min(best, _sdf_row(row, sx, sy, sz, ax, ay, az))
     return min(best, _sdf_row(row, sx, sy, sz, ax + dx, ay + dy, az + dz))
-
-
-@kernel
-def capsule_distances(row, shift, a, b, r, out):  # pragma: no cover - jitted
-    """``out[k]`` = signed distance (m) between capsule k (segment ``a[k]``-``b[k]`` (K, 3) [m], radius ``r[k]``)
-    and the primitive ``row`` (:func:`primitive_row`) moved by ``shift`` (3,) [m]: :func:`capsule_distance`,
-    compiled."""
-    for k in range(a.shape[0]):
-        out[k] = _capsule_row(row, shift[0], shift[1], shift[2], a[k, 0], a[k, 1], a[k, 2],
-                              b[k, 0] - a[k, 0], b[k, 1] - a[k, 1], b[k, 2] - a[k, 2]) - r[k]
 
 
 @kernel

@@ -254,10 +254,7 @@ class Scene:
             shift = m.motion.displacement(self.time)
             position = m.position + shift
             self.client.resetBasePositionAndOrientation(m.body, position.tolist(), m.orientation)
-            self._shifts[m.index] = shift
-            if self.boxes is not None and self._file_boxes is not None:
-                self.boxes[0][m.index] = self._file_boxes[0][m.index] + shift
-                self.boxes[1][m.index] = self._file_boxes[1][m.index] + shift
+            self._place_exact(m.index, shift)
         return bool(self.movers)
 
     def swept_clearance(self, robot_id: int, t0: float, t1: float, below: float,
@@ -300,7 +297,8 @@ class Scene:
         return best
 
     def _place_exact(self, index: int, shift: NDArray[np.float64]) -> None:
-        """Where the exact distances see obstacle ``index``: translated by ``shift`` (m) from its file pose."""
+        """Where the exact distances and :attr:`boxes` see obstacle ``index``: translated by ``shift`` (m) from
+        its file pose."""
         self._shifts[index] = shift
         if self.boxes is not None and self._file_boxes is not None:
             self.boxes[0][index] = self._file_boxes[0][index] + shift
@@ -390,20 +388,22 @@ class Scene:
                         if pt[8] < best:
                             best = pt[8]
             if best < d:
-                near = [b for b, g in zip(bodies, bound, strict=True) if g < best + MARGIN]
-                return self._sharpen(robot_id, float(best), float(exact_below), robot_capsules, near)
+                return self._sharpen(robot_id, float(best), float(exact_below), robot_capsules, bodies, bound)
         return dmax
 
     def _sharpen(self, robot_id: int, best: float, exact_below: float, capsules: Capsules | None,
-                 bodies: Sequence[int]) -> float:
+                 bodies: Sequence[int], bound: Sequence[float] | None = None) -> float:
         """``best``, PyBullet's smallest distance (m) to ``bodies``, made exact when the true one could be below
         ``exact_below`` or 0 (``best`` below their larger + :data:`MARGIN`): the primitives of ``bodies``
-        are measured again against the robot's ``capsules`` (read from PyBullet if None) wherever they may be
+        (those whose lower ``bound`` (m) on their distance, if given, is below ``best`` + :data:`MARGIN`) are
+        measured again against the robot's ``capsules`` (read from PyBullet if None) wherever they may be
         within ``best`` + :data:`MARGIN` (:mod:`navstack.sim.exact_distance`)."""
         if not 0.0 < best < max(exact_below, 0.0) + MARGIN:
             return best
+        within = best + MARGIN
+        near = bodies if bound is None else [b for b, g in zip(bodies, bound, strict=True) if g < within]
         caps = capsules if capsules is not None else _link_capsules(self.client, robot_id, self._capsules)
-        return min([best] + [d for _, d in self._exact_distances(caps, bodies, best + MARGIN)])
+        return min([best] + [d for _, d in self._exact_distances(caps, near, within)])
 
     def _exact_distances(self, capsules: Capsules, bodies: Sequence[int], within: float) -> list[tuple[int, float]]:
         """``(obstacle index, exact signed distance in m)`` of each primitive of ``bodies`` within ``within`` (m)
