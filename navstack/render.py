@@ -11,9 +11,9 @@ Used by ``scene.png`` (:func:`render_scene`, the last instant of a trial) and by
 * Overlays: the commanded tip path (``tip_des``), the goals (hollow until reached, then filled) and a
   caption are projected with the same matrices and drawn with Pillow, since the TinyRenderer draws no
   debug lines.
-* Contact: :func:`links_in_contact` asks ``getClosestPoints`` at distance 0 for every obstacle body and
-  reads the robot link of each point (the same test as the trial's contact metric, distance <= 0);
-  :class:`LinkTint` paints those links red.
+* Contact: :func:`navstack.sim.scene.contact_links` names the robot links at distance <= 0 from an obstacle
+  (PyBullet's closest points, and the exact distances where PyBullet rounds corners: the same test as the
+  trial's contact metric); :class:`LinkTint` paints those links red.
 """
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from navstack.sim._bullet import pybullet
+from navstack.sim.scene import contact_links
 
 CONTACT_RGBA = (0.9, 0.08, 0.08, 1.0)
 """Colour of a robot link touching an obstacle."""
@@ -214,16 +215,6 @@ def grab(client: Any, view, proj, width: int, height: int) -> tuple[NDArray[np.u
     return rgb, depth
 
 
-def links_in_contact(client: Any, robot_id: int, obstacle_ids: Iterable[int]) -> frozenset[int]:
-    """Robot links at distance <= 0 from any obstacle body (PyBullet link indices; -1 the base)."""
-    touching = set()
-    for b in obstacle_ids:
-        for pt in client.getClosestPoints(robot_id, b, 0.0):
-            if pt[8] <= 0.0:
-                touching.add(int(pt[3]))
-    return frozenset(touching)
-
-
 class LinkTint:
     """Paints chosen links of a body red (:data:`CONTACT_RGBA`) and restores the others' own colours."""
 
@@ -322,7 +313,7 @@ def render_scene(sim, path: Path, result=None, width: int = 960, height: int = 7
         q_end, _ = sim.body.joint_state()
         for q in q_all:
             sim.body.reset(q)
-            touched |= links_in_contact(sim.client, robot, sim.scene.body_ids)
+            touched |= contact_links(sim.scene, robot)
         sim.body.reset(q_end)
     LinkTint(sim.client, robot).set(touched)
     robot_pts = [tip_path] + [(sim.T0 @ F)[1:, :3, 3] for F in map(sim.chain.frames, q_all[::10])]

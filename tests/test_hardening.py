@@ -110,6 +110,31 @@ def test_a_path_0_4_mm_into_a_box_corner_is_a_collision_not_a_success():
     assert result.metrics["min_clearance"] == pytest.approx(-0.4e-3, abs=0.05e-3)
 
 
+def test_the_pictures_red_links_name_a_link_in_a_contact_pybullet_rounds_away():
+    """scene.png and the animation paint red the links :func:`navstack.sim.scene.contact_links` names: 0.3 mm
+    into a box corner, the tip link (the one PyBullet itself names at 1.5 mm, past its rounding), though
+    PyBullet's closest points alone see nothing; 0.3 mm clear, no link."""
+    from navstack.animate import ContactProbe
+
+    R = world_from_dict(world_data()).robot.serpentine_radius
+    side = TIP + [-0.1, R, 0.0]  # on the tip link's surface, above its middle
+    seen = {}
+    for depth in (1.5e-3, 0.3e-3, -0.3e-3):
+        world = world_from_dict(world_data(_corner_towards(side, [0, 1, 0], depth)))
+        probe = ContactProbe(world)
+        try:
+            links = probe.links(np.asarray(world.robot.q0))
+            raw = {pt[3] for b in probe.scene.body_ids
+                   for pt in probe.client.getClosestPoints(probe.robot.body_id, b, 0.0) if pt[8] <= 0.0}
+        finally:
+            probe.close()
+        seen[depth] = links, raw
+    tip_link = seen[1.5e-3][1]
+    assert len(tip_link) == 1 and seen[1.5e-3][0] == tip_link
+    assert seen[0.3e-3] == (tip_link, set())  # PyBullet alone: no contact
+    assert seen[-0.3e-3] == (frozenset(), set())
+
+
 def test_min_clearance_is_exact_where_pybullet_rounds_a_corner(tmp_path):
     """The same path 0.3 mm clear of the corner: a success whose min_clearance is the exact one, recomputed
     here from the recorded joint angles, the kinematics and the numpy reference distances at every step
