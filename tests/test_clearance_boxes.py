@@ -136,3 +136,61 @@ def test_link_boxes_need_radii_and_shapes():
             scene.clearance(body.body_id, 0.5, robot_boxes=(np.zeros((20, 2)), np.zeros((20, 2))))
     finally:
         client.disconnect()
+
+
+def test_a_horizon_beyond_a_metre_still_sees_what_lies_within_it():
+    """The box test culls a body only beyond the horizon asked for, whatever it is: a sphere 1.5 m above the
+    robot is found at horizons of 2 and 3 m, with the link boxes as without them."""
+    chain = jpl_serpentine()
+    data = load_world(ROOT / "worlds" / "paper_truss.json").to_dict()
+    world = world_from_dict(data)
+    T0 = world.robot.base.transform()
+    F = chain.frames(chain.check(world.robot.q0))
+    origins = F[1:22, :3, 3] @ T0[:3, :3].T + T0[:3, 3]
+    top = origins[np.argmax(origins[:, 2])]
+    data["obstacles"] = [{"type": "sphere", "center": (top + [0.0, 0.0, 1.6]).tolist(), "radius": 0.05}]
+    client = direct_client()
+    try:
+        body = RobotBody.build(client, chain, T0)
+        body.reset(world.robot.q0)
+        scene = Scene.build(client, world_from_dict(data))
+        client.performCollisionDetection()
+        boxes = body.link_boxes(origins)
+        for horizon in (2.0, 3.0):
+            plain = scene.clearance(body.body_id, horizon)
+            assert 1.4 < plain < 1.55
+            assert scene.clearance(body.body_id, horizon, robot_boxes=boxes) == plain
+        assert scene.clearance(body.body_id, 1.0, robot_boxes=boxes) == 1.0
+    finally:
+        client.disconnect()
+
+
+def test_the_capsules_read_from_pybullet_are_the_robots_own():
+    """What the scene reads from PyBullet's shape data and link states when a caller gives no capsules (touching,
+    the pictures' red links) is the robot of interfaces.md section 1 (RobotBody.capsules, from the kinematics)."""
+    from navstack.sim.scene import _link_capsules
+
+    chain = jpl_serpentine()
+    world = load_world(ROOT / "worlds" / "paper_truss.json")
+    T0 = world.robot.base.transform()
+    rng = np.random.default_rng(3)
+    client = direct_client()
+    try:
+        body = RobotBody.build(client, chain, T0, serpentine_radius=0.03, arm_radius=0.07)
+        for _ in range(5):
+            q = np.clip(chain.check(world.robot.q0) + rng.normal(size=chain.n) * 0.3, chain.lower, chain.upper)
+            body.reset(q)
+            origins = chain.frames(q)[1:22, :3, 3] @ T0[:3, :3].T + T0[:3, 3]
+
+            def rows(a, b, r):  # per capsule its radius and its ends, the lower first; sorted (keys to 1 um)
+                out = []
+                for x, y, rk in zip(a, b, r, strict=True):
+                    lo, hi = sorted([x, y], key=lambda e: tuple(np.round(e, 6)))
+                    out.append((float(rk), *lo, *hi))
+                return sorted(out, key=lambda row: tuple(np.round(row, 6)))
+
+            own, read = rows(*body.capsules(origins)), rows(*_link_capsules(client, body.body_id, {}))
+            assert len(read) == len(own) == 12  # six arm capsules, six serpentine links
+            np.testing.assert_allclose(np.array(read), np.array(own), atol=1e-9)
+    finally:
+        client.disconnect()

@@ -49,6 +49,57 @@ def test_points_inside_follows_the_placement_and_ignores_open_meshes(tmp_path):
     assert not points_inside(Mesh(path=tmp_path / "open.stl", position=position, rpy=rpy, scale=2.0), world).any()
 
 
+def _l_block() -> trimesh.Trimesh:
+    """A concave L: the outline (0, 0), (2, 0), (2, 1), (1, 1), (1, 2), (0, 2) extruded from z = 0 to 1, away
+    from the origin (a point and its mirror image are not alike); closed, faces outward."""
+    outline = [(0, 0), (2, 0), (2, 1), (1, 1), (1, 2), (0, 2)]  # counter-clockwise, star-shaped from (0, 0)
+    n = len(outline)
+    vertices = [(x, y, 0.0) for x, y in outline] + [(x, y, 1.0) for x, y in outline]
+    faces = []
+    for i in range(1, n - 1):  # a fan from corner 0: the bottom facing -z, the top +z
+        faces += [(0, i + 1, i), (n, n + i, n + i + 1)]
+    for i in range(n):  # the sides: each edge's quad, its normal to the right of the edge (outwards)
+        j = (i + 1) % n
+        faces += [(i, j, n + j), (i, n + j, n + i)]
+    return trimesh.Trimesh(np.array(vertices, dtype=float), np.array(faces), process=False)
+
+
+def _in_l(p: np.ndarray) -> np.ndarray:
+    x, y, z = p.T
+    return (0 < x) & (x < 2) & (0 < y) & (y < 2) & (0 < z) & (z < 1) & ~((x > 1) & (y > 1))
+
+
+def test_winding_numbers_and_points_inside_a_concave_mesh_off_the_origin(tmp_path, monkeypatch):
+    """An L-shaped block off the origin: a point of its box outside the L (its missing corner) is outside; the
+    winding number is the point's own (not its mirror image's); only points in the mesh's box are asked."""
+    import navstack.sim.mesh_inside as mesh_inside
+
+    block = _l_block()
+    assert block.is_watertight and block.volume > 0  # outward faces
+    pts = RNG.uniform(-0.5, 2.5, size=(600, 3))
+    pts = pts[np.min(np.abs(np.concatenate([pts, pts - 1.0, pts - 2.0], axis=1)), axis=1) > 0.01]  # off the faces
+    np.testing.assert_allclose(winding_numbers(block.vertices, block.faces, pts), _in_l(pts).astype(float),
+                               atol=1e-9)
+    block.export(tmp_path / "l.stl")
+    mesh = Mesh(path=tmp_path / "l.stl", position=np.zeros(3), rpy=np.zeros(3), scale=1.0)
+    asked = []
+    original = mesh_inside.winding_numbers
+    monkeypatch.setattr(mesh_inside, "winding_numbers", lambda v, f, p: asked.append(len(p)) or original(v, f, p))
+    inside = points_inside(mesh, pts)
+    np.testing.assert_array_equal(inside, _in_l(pts))
+    corner = (pts[:, 0] > 1) & (pts[:, 1] > 1) & np.all((pts > 0) & (pts < [2, 2, 1]), axis=1)
+    assert corner.sum() > 20 and not inside[corner].any()  # in the box, outside the L
+    in_box = np.all((pts >= 0) & (pts <= [2, 2, 1]), axis=1)
+    assert asked == [in_box.sum()] and in_box.sum() < len(pts)  # the rest never reach the winding numbers
+
+
+def test_is_closed_merges_the_vertices_an_stl_repeats_per_triangle():
+    """STL files store each triangle's own three vertices: closed once coincident vertices are merged."""
+    box = trimesh.creation.box(extents=[2.0, 1.0, 0.5])
+    soup = box.vertices[box.faces].reshape(-1, 3)
+    assert is_closed(soup, np.arange(len(soup)).reshape(-1, 3))
+
+
 def _block_world(tmp_path, mesh: trimesh.Trimesh, center) -> str:
     mesh.export(tmp_path / "block.stl")
     data = world_data({"type": "mesh", "path": "block.stl", "position": list(map(float, center))})

@@ -530,3 +530,28 @@ def test_exact_below_makes_the_clearance_exact_up_to_it(client):
         assert scene.clearance(probe, exact_below=0.1) == pytest.approx(true - R_PROBE, abs=1e-9)
         rounded = scene.clearance(probe, exact_below=0.01)
         assert rounded >= 0.01 and rounded > true - R_PROBE + 0.3e-3  # PyBullet's, rounded
+
+
+def test_the_exact_check_measures_only_the_primitives_near_the_robot(client, monkeypatch):
+    """With the robot's boxes, the exact check re-measures the primitives of the bodies that can be near, not
+    every primitive (five spheres 3 m apart, each its own body: only the one by the probe is asked)."""
+    import navstack.sim.scene as scene_module
+
+    spheres = [Sphere(center=[3.0 * i, 0.0, 0.0], radius=0.2) for i in range(5)]
+    scene = Scene.build(client, world_of(*spheres), SceneOptions(combine_primitives=False))
+    probe = make_probe(client)
+    asked = []
+    original = scene_module.member_distances
+
+    def spy(rows, members, *rest):
+        asked.append(sorted(members.tolist()))
+        return original(rows, members, *rest)
+
+    monkeypatch.setattr(scene_module, "member_distances", spy)
+    for k in (0, 2, 4):
+        centre = [3.0 * k + 0.2 + R_PROBE + 0.5e-3, 0.0, 0.0]
+        place(client, probe, centre)
+        asked.clear()
+        d = scene.clearance(probe, 1.0, robot_boxes=_probe_boxes(centre), exact_below=0.01)
+        assert d == pytest.approx(0.5e-3, abs=1e-9)
+        assert asked == [[k]]

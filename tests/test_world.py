@@ -588,3 +588,58 @@ def test_motion_dataclasses_validate():
         OscillateMotion(axis=[1, 0, 0], amplitude=1.0, period=1.0)
     with pytest.raises(WorldError, match=r"Sphere\.motion"):
         Sphere(center=[0, 0, 0], radius=1.0, motion={"type": "linear"})
+
+
+# ---- gaps a mutation sample of world.py found (tools/mutation.sh world) ------------------------------
+
+
+def test_a_mesh_with_vertices_but_no_triangles_is_refused_at_its_path(valid, spec_file):
+    (spec_file.parent / "parts" / "points.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\n")
+    valid["obstacles"][3]["path"] = "parts/points.obj"
+    spec_file.write_text(json.dumps(valid))
+    with pytest.raises(WorldError) as ei:
+        load_world(spec_file)
+    assert ei.value.json_path == "obstacles[3].path" and "at least one triangle" in str(ei.value)
+
+
+def test_a_bad_string_is_quoted_whole_when_short_and_cut_when_long(valid, spec_file):
+    for value, shown in (("navstack-world/2", '"navstack-world/2"'), ("x" * 200, '"' + "x" * 56 + '..."')):
+        valid["format"] = value
+        with pytest.raises(WorldError) as ei:
+            world_from_dict(valid, source=spec_file)
+        assert str(ei.value).endswith(f"got {shown}"), str(ei.value)
+
+
+def test_an_oscillation_phase_may_be_a_full_turn_either_way(valid, spec_file):
+    motion = {"type": "oscillate", "axis": [1, 0, 0], "amplitude": 0.1, "period": 6.0}
+    for phase in (2 * np.pi, -2 * np.pi):
+        valid["obstacles"][2]["motion"] = dict(motion, phase=phase)
+        assert world_from_dict(valid, source=spec_file).obstacles[2].motion.phase == phase
+    valid["obstacles"][2]["motion"] = dict(motion, phase=2 * np.pi + 1e-6)
+    with pytest.raises(WorldError) as ei:
+        world_from_dict(valid, source=spec_file)
+    assert ei.value.json_path == "obstacles[2].motion.phase"
+
+
+def test_worlds_whose_extra_differs_only_in_key_order_are_equal(valid, spec_file):
+    a = world_from_dict(dict(valid, extra={"a": 1, "b": [2, 3]}), source=spec_file)
+    b = world_from_dict(dict(valid, extra={"b": [2, 3], "a": 1}), source=spec_file)
+    assert a == b and hash(a) == hash(b)
+    assert a != world_from_dict(dict(valid, extra={"a": 1, "b": [3, 2]}), source=spec_file)
+
+
+def test_saved_worlds_are_laid_out_for_reading(spec_file, tmp_path):
+    """save_world: two spaces per level, a container that fits in 110 characters on one line, a long array of
+    numbers (q0) wrapped within 110 characters; the same world when read back."""
+    w = load_world(spec_file)
+    dest = spec_file.parent / "saved.json"
+    save_world(w, dest)
+    lines = dest.read_text().splitlines()
+    assert max(len(line) for line in lines) <= 110
+    assert lines[:2] == ["{", '  "format": "navstack-world/1",'] and lines[-1] == "}"
+    assert '    "base": {"position": [0.0, 0.0, 0.0], "rpy": [0.0, 0.0, 0.0]},' in lines
+    assert '  "goals": [{"position": [0.9, -0.1, 2.0], "tolerance": 0.02}],' in lines
+    q0 = lines.index('    "q0": [')
+    assert lines[q0 + 1].startswith("      0.0, 0.0, 0.0, -1.5707963267948966, ") and len(lines[q0 + 1]) > 90
+    assert lines[q0 + 3] == "    ],"
+    assert load_world(dest) == w
