@@ -9,7 +9,7 @@ from pybullet_utils.bullet_client import BulletClient
 from scipy.spatial.transform import Rotation
 
 import navstack
-from navstack.sim.body import RobotBody
+from navstack.sim.body import ARM_COLOUR, SERPENTINE_COLOUR, RobotBody
 from navstack.sim.servo import JointServo, ServoConfig
 
 ROBOT = navstack.jpl_serpentine()
@@ -41,6 +41,7 @@ def test_link_states_equal_frames(client):
         Fw = body.link_frames_world()
         worst = max(worst, np.abs(Fw[:, :3, 3] - F[1:, :3, 3]).max())
         np.testing.assert_allclose(Fw[:, :3, :3], F[1:, :3, :3], atol=1e-6)
+        np.testing.assert_array_equal(Fw[:, 3], F[1:, 3])  # homogeneous: the last row [0, 0, 0, 1]
     print(f"max |getLinkState - frames(q)| position: {worst:.2e} m")
     assert worst < 1e-6
 
@@ -162,3 +163,28 @@ def test_without_visuals_the_same_body_for_physics_and_rays(client):
         assert sum(h[0] >= 0 for h in states[0][3]) > 20  # the rays do hit the robot
     finally:
         bare_client.disconnect()
+
+
+def test_with_visuals_every_shaped_link_and_the_lathe_bed_are_drawn(client):
+    """What the pictures draw (``visuals=True``): each link's capsule as it collides, and the lathe bed's rail
+    along the prismatic joint's whole travel with 0.1 m to spare at each end (``visuals=False``: no rail; PyBullet
+    then makes the links' visual shapes from their collision shapes itself)."""
+    body = RobotBody.build(client, ROBOT, np.eye(4), visuals=True)
+    drawn = {s[1]: s for s in client.getVisualShapeData(body.body_id)}
+    shaped = {k: client.getCollisionShapeData(body.body_id, k)[0] for k in range(ROBOT.n + 1)
+              if client.getCollisionShapeData(body.body_id, k)}
+    assert len(shaped) == 12 and set(drawn) == set(shaped) | {-1}
+    for k, col in shaped.items():
+        assert drawn[k][2] == pybullet.GEOM_CAPSULE and drawn[k][3][:2] == pytest.approx(col[3][:2])
+        colour = SERPENTINE_COLOUR if k + 1 >= 9 else ARM_COLOUR  # link k carries DH frame k + 1
+        assert drawn[k][7] == pytest.approx(colour)
+    rail = drawn[-1]
+    lo, hi = ROBOT.lower[0], ROBOT.upper[0]
+    assert rail[2] == pybullet.GEOM_BOX and rail[3][2] == pytest.approx(hi - lo + 0.2)
+    assert rail[5] == pytest.approx((-0.1, 0.0, 0.5 * (lo + hi))) and rail[7] == pytest.approx((0.3, 0.3, 0.35, 1.0))
+    bare = BulletClient(connection_mode=pybullet.DIRECT)
+    try:
+        plain = bare.getVisualShapeData(RobotBody.build(bare, ROBOT, np.eye(4), visuals=False).body_id)
+        assert {s[1] for s in plain} == set(shaped)
+    finally:
+        bare.disconnect()

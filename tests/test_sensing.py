@@ -107,6 +107,47 @@ def test_frame_from_direction_is_a_proper_frame():
         frame_from_direction([0, 0, 0], [0, 0, 0])
 
 
+def test_config_closed_bounds_include_their_ends():
+    """The documented ranges hold at their closed ends, and not a hair beyond them."""
+    for field, at, beyond in (("back_tilt", 1.2, 1.2 + 1e-9), ("noise_std", 1.0, 1.0 + 1e-9),
+                              ("body_radius", 1.0, 1.0 + 1e-9), ("start_margin", 1.0, 1.0 + 1e-9),
+                              ("max_range", 100.0, 100.0 + 1e-6), ("cone_rays_per_ring", 1, 0)):
+        roomy = {"max_range": 100.0} if field != "max_range" else {}
+        assert getattr(SensorConfig(**roomy, **{field: at}), field) == at
+        with pytest.raises(ValueError, match=field):
+            SensorConfig(**roomy, **{field: beyond})
+
+
+def test_ring_azimuths_alternate_as_documented():
+    """Forward rings alternate: odd rings start at azimuth 0, even ones half a ray later (pi / m); the side ring
+    starts at azimuth 0 (the tip frame's +y), the back ring half a ray along (pi / back_rays)."""
+    cfg = SensorConfig(cone_rings=4, cone_rays_per_ring=6, side_rays=10, back_rays=8)
+    d = ray_directions(cfg)
+    first = [1 + 6 * k for k in range(4)] + [25, 35]  # the first ray of each ring, after the axis ray
+    azimuth = np.arctan2(d[first, 2], d[first, 1])
+    np.testing.assert_allclose(azimuth, [0.0, np.pi / 6, 0.0, np.pi / 6, 0.0, np.pi / 8], atol=1e-12)
+    np.testing.assert_allclose(d[25], [0.0, 1.0, 0.0], atol=1e-12)
+    second = np.arctan2(d[2, 2], d[2, 1])  # azimuth grows around +x (right-handed) within a ring
+    assert second == pytest.approx(2 * np.pi / 6)
+
+
+def test_bad_shapes_are_refused_with_a_clear_error():
+    for position, direction in (([0, 0, 0], [1, 0]), ([0, 0, 0], [1, 0, 0, 0]), ([0, 0], [1, 0, 0])):
+        with pytest.raises(ValueError, match="position|direction"):
+            frame_from_direction(position, direction)
+    t, f = np.ones(3, bool), np.zeros(3, bool)
+    with pytest.raises(ValueError, match="disagree"):  # ranges not 1-D
+        SensorReading(np.zeros((3, 3)), np.zeros((3, 3)), np.zeros((3, 1)), f, t, 0.4)
+    with pytest.raises(ValueError, match="disagree"):  # a short hit
+        SensorReading(np.zeros((3, 3)), np.zeros((3, 3)), np.zeros(3), f[:2], t, 0.4)
+    with pytest.raises(ValueError, match="disagree"):  # a long valid
+        SensorReading(np.zeros((3, 3)), np.zeros((3, 3)), np.zeros(3), f, np.ones(4, bool), 0.4)
+    n = EXACT.n_rays
+    for count in (n - 1, n + 1):
+        with pytest.raises(ValueError, match=f"{count} ranges given but the SensorConfig has {n} rays"):
+            apply_noise(np.full(count, 0.2), np.ones(count, bool), EXACT, np.random.default_rng(0))
+
+
 # ----------------------------------------------------------------- noise model
 def test_noise_model_statistics_and_dropouts():
     cfg = SensorConfig(noise_std=0.01, dropout_prob=0.2)
@@ -226,6 +267,33 @@ def test_rays_starting_inside_another_robot_capsule_still_see_obstacles(client):
     r = RaySensor(client, EXACT, robot, None).read(frame_from_direction([0, 0, 0], [1, 0, 0]))
     assert r.ranges[0] == pytest.approx(0.3, abs=1e-6)
     np.testing.assert_allclose(r.points[:, 0], 0.3, atol=1e-6)
+
+
+def test_obstacles_made_before_the_robot_are_seen_and_the_robot_is_not(client):
+    """The robot's own hits are dropped by its body id alone, whatever the order the bodies were made in: a wall
+    with a smaller id than the robot's is seen through the robot's folded segment's side."""
+    _box(client, [0.35, 0, 0], [0.05, 2, 2])  # made first: the smaller body id
+    robot = _robot_with_parallel_segment(client)
+    reading = RaySensor(client, EXACT, robot, None).read(frame_from_direction([0, 0, 0], [1, 0, 0]))
+    assert reading.ranges[0] == pytest.approx(0.3, abs=1e-6)
+    np.testing.assert_allclose(reading.points[:, 0], 0.3, atol=1e-6)
+
+
+def test_a_batch_of_the_wrong_length_is_an_error(client):
+    """PyBullet answers one result per ray; a client that does not is refused, never half read."""
+    class Short(_CountingClient):
+        def __init__(self, client, extra):
+            super().__init__(client)
+            self.extra = extra
+
+        def rayTestBatch(self, *args, **kwargs):  # noqa: N802 - PyBullet's name
+            out = list(super().rayTestBatch(*args, **kwargs))
+            return out[:-1] if self.extra < 0 else out + out[:1]
+
+    pose = frame_from_direction([0, 0, 0], [1, 0, 0])
+    for extra in (-1, 1):
+        with pytest.raises(RuntimeError, match="rayTestBatch returned"):
+            RaySensor(Short(client, extra), EXACT, None, None).read(pose)
 
 
 def test_same_seed_same_noisy_readings(client):

@@ -78,7 +78,6 @@ class RobotBody:
     body_id: int
     chain: Chain
     base_transform: NDArray[np.float64]
-    n_arm_frames: int = 8
     link_radii: NDArray[np.float64] | None = None
     """(21,) [m]: the radius of the capsule on DH frame k (index k - 1), from its origin to frame k + 1's
     (0 where the two coincide and the link has no shape); set by :meth:`build`."""
