@@ -119,6 +119,11 @@ def test_same_trials_are_paired_and_counted():
     assert (truss.ci_low, truss.ci_high) == pytest.approx(hand_paired(both, 2, 3, 10 - both - 5))
     pooled = rows[2]
     assert (pooled.n_a, pooled.k_a, pooled.k_b) == (16, 11, 11) and pooled.test == "McNemar exact"
+    # the truss table (3, 2, 3, 2) mirrors another ((2, 2, 3, 3) gives the same interval): the pooled one does not
+    both = sum(a[k] and b[k] for k in a)
+    assert (both, pooled.a_only, pooled.b_only) == (8, 3, 3)
+    assert (pooled.ci_low, pooled.ci_high) == pytest.approx(hand_paired(8, 3, 3, 2))
+    assert (pooled.ci_low, pooled.ci_high) != pytest.approx(hand_paired(3, 3, 3, 7))
 
 
 def test_different_trials_are_unpaired():
@@ -182,3 +187,79 @@ def test_command_line_markdown_plot_and_bad_input(tmp_path, capsys):
     (tmp_path / "d" / "results.jsonl").write_text('{"controller": "slither"}\n')
     assert compare.run_from_args(_args([str(a), str(tmp_path / "d")])) == 2
     assert "line 1: field 'planner'" in capsys.readouterr().err
+
+
+# ---- gaps a mutation sample of compare.py found (tools/mutation.sh compare) ------------------------------
+
+
+def test_each_method_is_compared_with_its_own_trials_and_named_in_order():
+    a = sweep_records({("truss", i): True for i in range(4)}, planner="scripted")
+    a += sweep_records({("truss", i): i < 1 for i in range(6)}, planner="field")
+    b = sweep_records({("truss", i): i < 2 for i in range(4)}, planner="scripted")
+    b += sweep_records({("truss", i): i < 3 for i in range(6)}, planner="field")
+    rows = [r for r in compare.compare(a, b) if r.family == "truss"]
+    assert [(r.label, r.n_a, r.k_a, r.n_b, r.k_b) for r in rows] == [
+        ("slither/field", 6, 1, 6, 3), ("slither/scripted", 4, 4, 4, 2)]
+    single = compare.compare(sweep_records({("truss", 0): True}, planner="scripted"),
+                             sweep_records({("truss", 0): True}, planner="field"))
+    assert single[0].label == "slither/scripted vs slither/field"  # A's method first, whichever sorts first
+
+
+def test_trials_without_a_family_come_after_the_named_families():
+    a = sweep_records({("truss", i): True for i in range(3)})
+    loose = sweep_records({("x", i): True for i in range(3)})
+    for r in loose:
+        del r["family"]
+    rows = compare.compare(a + loose, a + loose)
+    assert [r.family for r in rows] == ["truss", "(none)", "(all)"]
+
+
+def test_the_header_names_each_sweeps_versions_and_flags_a_mix():
+    def stamped(recs, version, commit):
+        return [dict(r, provenance={"navstack": version, "commit": commit}) for r in recs]
+
+    recs = sweep_records({("truss", i): True for i in range(2)})
+    one = stamped(recs, "0.4.0", "abcdef1234567890")
+    mixed = one[:1] + stamped(recs[1:], "0.5.0", None)
+    text = compare.render_markdown(compare.compare(one, mixed), "A", "B", one, mixed)
+    assert "- A: `A`, 2 trials (navstack 0.4.0 @ abcdef123456)\n" in text
+    assert "- B: `B`, 2 trials (navstack 0.4.0 @ abcdef123456, navstack 0.5.0 **(mixed versions)**)\n" in text
+
+
+def test_the_plot_draws_every_row_once_with_its_own_interval(tmp_path, monkeypatch):
+    from matplotlib.axes import Axes
+
+    drawn = []
+    original = Axes.errorbar
+
+    def spy(self, x, y, xerr=None, fmt="", **kw):
+        drawn.append((fmt, list(x), list(y), np.asarray(xerr).tolist()))
+        return original(self, x, y, xerr=xerr, fmt=fmt, **kw)
+
+    monkeypatch.setattr(Axes, "errorbar", spy)
+    paired = compare.compare(sweep_records({("truss", i): i % 2 == 0 for i in range(8)}),
+                             sweep_records({("truss", i): i != 3 for i in range(8)}))
+    unpaired = compare.compare(sweep_records({("rack", i): i < 5 for i in range(9)}),
+                               sweep_records({("rack", i): i < 2 for i in range(7)}))
+    rows = paired + unpaired
+    path = compare.write_plot(rows, tmp_path / "new" / "folder" / "compare.png")  # folders made as needed
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert [d[0] for d in drawn] == ["o", "s"]  # paired rows as circles, unpaired as squares
+    y = {3: 0, 2: 1, 1: 2, 0: 3}  # the first row at the top
+    for fmt, xs, ys, err in drawn:
+        for k, (x, yy) in enumerate(zip(xs, ys, strict=True)):
+            r = rows[y[yy]]
+            assert r.paired == (fmt == "o") and x == r.diff
+            assert [err[0][k], err[1][k]] == pytest.approx([r.diff - r.ci_low, r.ci_high - r.diff])
+    assert sorted(yy for d in drawn for yy in d[2]) == [0, 1, 2, 3]  # each row once
+
+
+def test_the_command_line_says_what_it_wrote_and_only_then(tmp_path, capsys):
+    a = _write(tmp_path / "a", sweep_records({("truss", i): i % 2 == 0 for i in range(4)}))
+    assert compare.run_from_args(_args([str(a), str(a)])) == 0
+    assert capsys.readouterr().err == ""
+    out = tmp_path / "cmp"
+    assert compare.run_from_args(_args([str(a), str(a), "--out", str(out)])) == 0
+    assert capsys.readouterr().err == f"wrote {out / 'compare.md'} and {out / 'compare.png'}\n"
+    assert compare.run_from_args(_args([str(a), str(a), "--out", str(out), "--no-plots"])) == 0
+    assert capsys.readouterr().err == f"wrote {out / 'compare.md'}\n"

@@ -173,11 +173,12 @@ def test_report_numbers_match_a_recomputation(tmp_path):
         ("### Time to goal (s, simulated), successful trials",
          lambda r: r["sim_time"] if r["success"] else None),
     ):
-        for c, p, n, mn, _p10, med, _p90, mx, mean in md_table(text, heading):
+        for c, p, n, mn, p10, med, p90, mx, mean in md_table(text, heading):
             v = [values(r) for r in recs if (r["controller"], r["planner"]) == (c, p)]
             v = [x for x in v if x is not None]
             assert int(n) == len(v)
-            for s, want in ((mn, min(v)), (med, float(np.median(v))), (mx, max(v)), (mean, float(np.mean(v)))):
+            for s, want in ((mn, min(v)), (p10, float(np.percentile(v, 10))), (med, float(np.median(v))),
+                            (p90, float(np.percentile(v, 90))), (mx, max(v)), (mean, float(np.mean(v)))):
                 assert float(s) == pytest.approx(want, rel=1e-3, abs=1e-6)
 
     n_err = sum(r["reason"] == "error" for r in recs)
@@ -223,6 +224,12 @@ def test_truncated_last_line_is_ignored_with_a_note(tmp_path):
      "line 2: field 'reason' is 'crashed'"),
     ('GOOD\n{"controller": "slither", "planner": "field", "success": true, "reason": "timeout"}\n',
      "line 2: field 'reason' is 'timeout' but 'success' is true"),
+    ('GOOD\n{"controller": "slither", "planner": "field", "success": true, "reason": "collision"}\n',
+     "line 2: field 'reason' is 'collision' but 'success' is true"),
+    ('GOOD\n{"controller": "s", "planner": "f", "success": false, "reason": "timeout", "difficulty": "hard"}\n',
+     "line 2: field 'difficulty' must be a finite number or null, got 'hard'"),
+    ('GOOD\n{"controller": "s", "planner": "f", "success": false, "reason": "timeout", "sim_time": NaN}\n',
+     "line 2: field 'sim_time' must be a finite number or null"),
     ('GOOD\n{"controller": "s", "planner": "f", "success": false, "reason": "timeout", "metrics": '
      '{"min_clearance": "far"}}\n', "line 2: field 'metrics.min_clearance'"),
     ('GOOD\n{"trial_id": "t0000", "controller": "s", "planner": "f", "success": false, "reason": "timeout"}\n',
@@ -316,3 +323,61 @@ def test_retraction_column_counts_only_records_that_carry_the_key(tmp_path):
     write_jsonl(tmp_path / "results.jsonl", recs)
     with pytest.raises(ReportError, match="line 1: field 'retracted' must be true or false"):
         write_report(tmp_path, plots=False)
+
+
+def test_the_plots_draw_the_numbers_of_the_tables(tmp_path, monkeypatch):
+    """The success-rate bars and the per-family curves carry each rate and its Wilson interval, every method
+    of every family once (a mutation sample of report.py found plots the tables did not check)."""
+    from matplotlib.axes import Axes
+
+    bars, curves, stacked = [], [], []
+    real_bar, real_errorbar = Axes.bar, Axes.errorbar
+
+    def bar(self, x, height, *args, **kw):
+        if "yerr" in kw:  # the success-rate chart
+            bars.append((np.asarray(x).tolist(), np.asarray(height).tolist(), np.asarray(kw["yerr"]).tolist()))
+        else:  # the failure causes, stacked: one bar per reason
+            stacked.append((kw["label"], np.asarray(height).tolist(), np.asarray(kw["bottom"]).tolist()))
+        return real_bar(self, x, height, *args, **kw)
+
+    def errorbar(self, x, y, *args, **kw):
+        if kw.get("label") != "_nolegend_":  # not the bars' own error bars
+            curves.append((self, kw["label"], np.asarray(x).tolist(), np.asarray(y).tolist(),
+                           np.asarray(kw["yerr"]).tolist()))
+        return real_errorbar(self, x, y, *args, **kw)
+
+    monkeypatch.setattr(Axes, "bar", bar)
+    monkeypatch.setattr(Axes, "errorbar", errorbar)
+    recs = synthetic_records()
+    s = summarize(recs)
+    report.write_plots(s, tmp_path / "a" / "plots")  # folders made as needed
+    groups = [*s.families, "all"]
+    assert len(bars) == len(s.methods)
+    for (xs, heights, err), m in zip(bars, s.methods, strict=True):
+        rates = [s.by_family.get((f, m)) for f in s.families] + [s.by_method[m]]
+        assert len(xs) == len(groups) and np.all(np.diff(xs) > 0)
+        for k, r in enumerate(rates):
+            if r is not None:
+                assert heights[k] == r.rate and [err[0][k], err[1][k]] == pytest.approx(
+                    [r.rate - r.ci_low, r.ci_high - r.rate])
+    assert sorted(x for xs, _, _ in bars for x in xs) == sorted(  # the methods side by side in each group
+        g + (j - (len(s.methods) - 1) / 2) * 0.8 / len(s.methods) for g in range(len(groups))
+        for j in range(len(s.methods)))
+    labels = {report.method_label(m): m for m in s.methods}
+    seen = set()
+    for ax, label, xs, ys, err in curves:
+        fam, m = ax.get_title(), labels[label]  # the title is set once the curves are drawn
+        seen.add((fam, m))
+        cells = [(d, s.by_cell[(fam, d, m)]) for d in s.difficulties if (fam, d, m) in s.by_cell]
+        assert xs == pytest.approx([d for d, _ in cells], abs=0.01) and ys == [r.rate for _, r in cells]
+        want = [[r.rate - r.ci_low for _, r in cells], [r.ci_high - r.rate for _, r in cells]]
+        np.testing.assert_allclose(err, want, rtol=1e-12)
+    assert seen == {(f, m) for (f, d, m) in s.by_cell if d is not None}
+    bottom = np.zeros(len(s.methods))
+    for reason, heights, below in stacked:
+        want = [sum(r["reason"] == reason for r in recs if (r["controller"], r["planner"]) == m) for m in s.methods]
+        assert heights == want and below == bottom.tolist()
+        bottom += heights
+    assert [r for r, _, _ in stacked] == [r for r in report.REASONS if r != "reached" and any(
+        x["reason"] == r for x in recs)]
+    assert report.Stats.of([]).n == 0
