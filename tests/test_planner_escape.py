@@ -175,6 +175,13 @@ def test_escape_config_rejects_bad_values(name, value):
         EscapeConfig(**{name: value})
 
 
+def test_max_retreats_may_be_zero_but_not_negative_or_a_bool():
+    assert EscapeConfig(max_retreats=0).max_retreats == 0  # never back out: give up at once
+    for bad in (-1, True, 1.5):
+        with pytest.raises(ValueError, match="max_retreats"):
+            EscapeConfig(max_retreats=bad)
+
+
 # ---------------------------------------------------------------------------- the retreat to the branch point
 def _retreat_commands(path: PathMemory, s: float, dt: float = 1.0 / 30.0, steps: int = 2000):
     r = Retreat(path, s, CFG.speed, CFG.accel)

@@ -190,7 +190,26 @@ def test_the_command_resumes_when_the_tip_catches_up():
     ({"v_max": 0.0}, "v_max"), ({"accel": -1.0}, "accel"), ({"max_lead": np.nan}, "max_lead"),
     ({"v_min": True}, "v_min"), ({"v_min": 0.1, "v_max": 0.05}, "v_min"),
     ({"stop_clearance": 0.05, "slow_clearance": 0.05}, "stop_clearance"),
+    ({"accel": 0.0}, "accel"), ({"max_lead": -0.5}, "max_lead"), ({"max_lead": True}, "max_lead"),
+    ({"stop_clearance": 0.06, "slow_clearance": 0.05}, "stop_clearance"),
 ])
 def test_steering_config_rejects_bad_values(kw, field):
     with pytest.raises(ValueError, match=field):
         SteeringConfig(**kw)
+
+
+
+def test_equal_speed_bounds_are_allowed_and_a_follower_starts_at_rest():
+    assert SteeringConfig(v_min=0.05, v_max=0.05).v_min == 0.05
+    f = PlanFollower(_straight(0.5), CFG)
+    assert (f.s, f.v) == (0.0, 0.0)
+
+
+def test_a_creeping_speed_below_a_ten_thousandth_of_v_max_is_a_stop():
+    """A tip lagging by all but a hair of ``max_lead`` allows a crawl of 0.5e-4 v_max: the command does not
+    creep at that, it stops."""
+    lag = CFG.max_lead - 0.5 * CFG.max_lead * 0.5e-4
+    f = PlanFollower(_straight(0.5), CFG)
+    assert 0.0 < f.target_speed(1.0, lag, DT) < 1e-4 * CFG.v_max
+    f.advance(DT, 1.0, lag)
+    assert (f.s, f.v) == (0.0, 0.0)
