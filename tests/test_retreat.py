@@ -61,6 +61,12 @@ def test_the_profile_accelerates_cruises_and_stops_on_the_target():
     held = r.step(dt)  # after done: at rest on the target
     np.testing.assert_array_equal(held.velocity, 0.0)
     assert r.arc_length == target
+    # each speed is the module's rule, written out: the cruise speed, one step of acceleration, or the fastest
+    # speed from which steps braking by accel * dt stop on the target (v^2 + a dt v <= 2 a remaining)
+    for k in range(1, len(speeds) - 1):
+        rem, adt = arcs[k - 1] - target, accel * dt
+        brake = 0.5 * (np.sqrt(adt * adt + 8.0 * accel * rem) - adt)
+        assert speeds[k] == pytest.approx(min(speed, speeds[k - 1] + adt, brake), rel=1e-12)
 
 
 def test_following_a_retreat_cuts_the_path_and_keeps_the_chain_on_it():
@@ -93,6 +99,8 @@ def test_following_a_retreat_cuts_the_path_and_keeps_the_chain_on_it():
         ({"speed": 0.0}, "speed"),
         ({"accel": -1.0}, "accel"),
         ({"speed": True}, "speed"),
+        ({"speed": float("nan")}, "speed"),
+        ({"accel": float("inf")}, "accel"),
     ],
 )
 def test_bad_retreats_raise_naming_the_argument(kwargs, match):
@@ -102,5 +110,25 @@ def test_bad_retreats_raise_naming_the_argument(kwargs, match):
         Retreat(pm, **args)
     with pytest.raises(TypeError, match="PathMemory"):
         Retreat(object(), 1.0, 0.05, 0.1)  # type: ignore[arg-type]
-    with pytest.raises(ValueError, match="dt"):
-        Retreat(pm, pm.start_arc_length, 0.05, 0.1).step(0.0)
+    Retreat(pm, pm.end_arc_length, 0.05, 0.1)  # no way to go: allowed, and done at once
+    assert Retreat(pm, pm.end_arc_length, 0.05, 0.1).done
+    with pytest.raises(ValueError, match="to_arc_length"):
+        Retreat(pm, 1e-9, 0.05, 0.1)  # not above the smallest arc length a path has
+    for dt in (0.0, -1.0 / 30.0, float("nan")):
+        with pytest.raises(ValueError, match="dt"):
+            Retreat(pm, pm.start_arc_length, 0.05, 0.1).step(dt)
+
+
+def test_once_there_the_command_holds_the_target_at_rest():
+    pm, _ = _arc_path()
+    r = Retreat(pm, pm.start_arc_length, 0.05, 0.1)
+    for _ in range(10_000):
+        if r.done:
+            break
+        r.step(1.0 / 30.0)
+    assert r.done and r.arc_length == pm.start_arc_length
+    for _ in range(3):
+        cmd = r.step(1.0 / 30.0)
+        assert r.speed_now == 0.0 and cmd.reverse
+        np.testing.assert_array_equal(cmd.velocity, np.zeros(3))
+        np.testing.assert_array_equal(cmd.position, pm.point_at(pm.start_arc_length)[0])
