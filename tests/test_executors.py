@@ -265,3 +265,39 @@ def test_a_sweep_of_two_controllers_on_two_workers_gives_the_one_worker_lines(tm
     assert comparable(outs[1]) == comparable(outs[2])
     for s in specs:
         assert (tmp_path / "1" / s.world_file).read_bytes() == (tmp_path / "2" / s.world_file).read_bytes()
+
+
+def test_a_worker_exits_when_the_process_that_started_it_is_gone():
+    """The watchdog every local worker runs: it exits (status 3) within a second once its parent is no longer
+    the process that started it (the driver was killed), and keeps running while it is."""
+    import os
+    import sys
+
+    code = "import sys; from navstack.executors import _parent_watchdog; _parent_watchdog(int(sys.argv[1]))"
+    orphan = subprocess.Popen([sys.executable, "-c", code, str(2**22 + 7)])  # above any pid: as if orphaned
+    assert orphan.wait(timeout=30) == 3
+    child = subprocess.Popen([sys.executable, "-c", code, str(os.getpid())])  # its real parent: keeps watching
+    try:
+        time.sleep(3.0)
+        assert child.poll() is None
+    finally:
+        child.kill()
+        child.wait()
+
+
+def test_a_replys_wall_time_is_the_trials_own_and_results_become_dicts(tmp_path):
+    """``run_job`` times the trial itself (seconds, from its start: not a clock reading), and turns a runner's
+    dataclass result into a dict (a dataclass *class* is no result)."""
+    import dataclasses
+
+    t0 = time.monotonic()
+    reply = executors.run_job(_job(tmp_path))
+    assert reply["error"] is None and 0.0 <= reply["wall_time"] <= time.monotonic() - t0
+
+    @dataclasses.dataclass
+    class Result:
+        success: bool = True
+
+    assert executors._result_to_dict(Result()) == {"success": True}
+    with pytest.raises(TypeError, match="the trial runner returned"):
+        executors._result_to_dict(Result)
