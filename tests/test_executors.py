@@ -301,3 +301,10 @@ def test_a_replys_wall_time_is_the_trials_own_and_results_become_dicts(tmp_path)
     assert executors._result_to_dict(Result()) == {"success": True}
     with pytest.raises(TypeError, match="the trial runner returned"):
         executors._result_to_dict(Result)
+
+
+def test_a_closed_pool_takes_no_more_trials(tmp_path):
+    pool = WorkerPool(1, runner=fake_runner)
+    pool.close(cancel=True)
+    late = pool.submit(_job(tmp_path), None)
+    assert late.cancelled()  # refused at once, never queued for a worker that is gone
