@@ -8,7 +8,7 @@ frame is held for :attr:`AnimationConfig.hold` seconds with the trial's outcome 
 How (PyBullet TinyRenderer, explicit matrices from :mod:`navstack.render`):
 
 * contact is recomputed per frame from the replayed joints against the world in a DIRECT client
-  (:func:`navstack.sim.scene.contact_links`: PyBullet's closest points at distance 0 and the exact distances
+  (:meth:`navstack.sim.scene.Scene.contact_links`: PyBullet's closest points at distance 0 and the exact distances
   where PyBullet rounds corners), the same test as the trial's ``contacts`` metric;
 * the static picture (the structure and the lathe bed) is rendered once (colour and depth) in that
   client with the robot's links hidden; each frame renders only the links, in a second client, and only
@@ -49,7 +49,6 @@ from navstack.render import (
     project,
 )
 from navstack.rundir import RunData, load_run
-from navstack.sim.scene import contact_links
 
 FORMATS = (".mp4", ".gif")
 
@@ -162,7 +161,7 @@ class ContactProbe:
     def links(self, q: NDArray[np.float64]) -> frozenset[int]:
         """PyBullet links (link k carries DH frame k + 1) within distance 0 of an obstacle at joints ``q``."""
         self.robot.reset(q)
-        return contact_links(self.scene, self.robot.body_id)
+        return self.scene.contact_links(self.robot.body_id)
 
     def close(self) -> None:
         try:

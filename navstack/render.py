@@ -11,7 +11,7 @@ Used by ``scene.png`` (:func:`render_scene`, the last instant of a trial) and by
 * Overlays: the commanded tip path (``tip_des``), the goals (hollow until reached, then filled) and a
   caption are projected with the same matrices and drawn with Pillow, since the TinyRenderer draws no
   debug lines.
-* Contact: :func:`navstack.sim.scene.contact_links` names the robot links at distance <= 0 from an obstacle
+* Contact: :meth:`navstack.sim.scene.Scene.contact_links` names the robot links at distance <= 0 from an obstacle
   (PyBullet's closest points, and the exact distances where PyBullet rounds corners: the same test as the
   trial's contact metric); :class:`LinkTint` paints those links red.
 """
@@ -29,7 +29,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from navstack.sim._bullet import pybullet
-from navstack.sim.scene import contact_links
 
 CONTACT_RGBA = (0.9, 0.08, 0.08, 1.0)
 """Colour of a robot link touching an obstacle."""
@@ -313,7 +312,7 @@ def render_scene(sim, path: Path, result=None, width: int = 960, height: int = 7
         q_end, _ = sim.body.joint_state()
         for q in q_all:
             sim.body.reset(q)
-            touched |= contact_links(sim.scene, robot)
+            touched |= sim.scene.contact_links(robot)
         sim.body.reset(q_end)
     LinkTint(sim.client, robot).set(touched)
     robot_pts = [tip_path] + [(sim.T0 @ F)[1:, :3, 3] for F in map(sim.chain.frames, q_all[::10])]

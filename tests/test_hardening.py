@@ -111,7 +111,7 @@ def test_a_path_0_4_mm_into_a_box_corner_is_a_collision_not_a_success():
 
 
 def test_the_pictures_red_links_name_a_link_in_a_contact_pybullet_rounds_away():
-    """scene.png and the animation paint red the links :func:`navstack.sim.scene.contact_links` names: 0.3 mm
+    """scene.png and the animation paint red the links :meth:`navstack.sim.scene.Scene.contact_links` names: 0.3 mm
     into a box corner, the tip link (the one PyBullet itself names at 1.5 mm, past its rounding), though
     PyBullet's closest points alone see nothing; 0.3 mm clear, no link."""
     from navstack.animate import ContactProbe

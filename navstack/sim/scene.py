@@ -235,13 +235,16 @@ class Scene:
         scene = cls(client=client, world=world, body_ids=tuple(bodies), obstacle_body=tuple(body_of),
                     options=opts, movers=tuple(movers), boxes=_obstacle_boxes(client, world, body_of))
         scene._file_boxes = (scene.boxes[0].copy(), scene.boxes[1].copy())
-        scene._body_rank = np.array([bodies.index(b) for b in body_of], dtype=np.int64)
+        rank = {b: k for k, b in enumerate(bodies)}
+        scene._body_rank = np.array([rank[b] for b in body_of], dtype=np.int64)
         scene._rows = np.array([np.full(ROW, np.nan) if isinstance(o, Mesh) else primitive_row(o)
                                 for o in world.obstacles]).reshape(-1, ROW)
         scene._shifts = np.zeros((len(world.obstacles), 3))
-        for b in bodies:
-            scene._primitives[b] = np.array([i for i, o in enumerate(world.obstacles)
-                                             if body_of[i] == b and not isinstance(o, Mesh)], dtype=np.int64)
+        members: dict[int, list[int]] = {b: [] for b in bodies}
+        for i, o in enumerate(world.obstacles):
+            if not isinstance(o, Mesh):
+                members[body_of[i]].append(i)
+        scene._primitives = {b: np.array(m, dtype=np.int64) for b, m in members.items()}
         scene.update(0.0)
         return scene
 
@@ -416,6 +419,19 @@ class Scene:
         member_distances(self._rows, idx, self._shifts, self.boxes[0], self.boxes[1], *capsules, within, out)
         return [(int(i), float(d)) for i, d in zip(idx, out, strict=True) if d < math.inf]
 
+    def contact_links(self, robot_id: int) -> frozenset[int]:
+        """The links of ``robot_id`` (PyBullet link indices, -1 the base) that touch or penetrate an obstacle now
+        (signed distance <= 0): PyBullet's closest points at distance 0, and each capsule or sphere link
+        measured exactly as in :meth:`touching`, so the pictures' red links agree with the ``contacts`` metric."""
+        cl = self.client
+        links = {int(pt[3]) for b in self.body_ids for pt in cl.getClosestPoints(robot_id, b, 0.0) if pt[8] <= 0.0}
+        a, b, r = _link_capsules(cl, robot_id, self._capsules)
+        for k, (link, *_) in enumerate(self._capsules[robot_id]):
+            one = a[k:k + 1], b[k:k + 1], r[k:k + 1]
+            if link not in links and any(d <= 0.0 for _, d in self._exact_distances(one, self.body_ids, MARGIN)):
+                links.add(link)
+        return frozenset(links)
+
     def in_contact(self, robot_id: int) -> bool:
         """True if any link of ``robot_id`` touches or penetrates an obstacle (distance <= 0 m), judged
         from the last step's contact points and from :meth:`touching`."""
@@ -434,23 +450,6 @@ class Scene:
         self.obstacle_body = ()
         self.movers = ()
 
-
-
-def contact_links(scene: Scene, robot_id: int) -> frozenset[int]:
-    """The links of ``robot_id`` (PyBullet link indices, -1 the base) that touch or penetrate an obstacle of
-    ``scene`` now (signed distance <= 0): those of PyBullet's closest points at distance 0, and each capsule or
-    sphere link measured exactly against the primitives near it, so that a link in a contact PyBullet's rounded
-    corners hide is named as :meth:`Scene.touching` names the obstacle (the pictures' red links agree with the
-    ``contacts`` metric)."""
-    cl = scene.client
-    links = {int(pt[3]) for b in scene.body_ids for pt in cl.getClosestPoints(robot_id, b, 0.0) if pt[8] <= 0.0}
-    a, b, r = _link_capsules(cl, robot_id, scene._capsules)
-    for k, (link, *_) in enumerate(scene._capsules[robot_id]):
-        if link not in links:
-            one = a[k:k + 1], b[k:k + 1], r[k:k + 1]
-            if any(d <= 0.0 for _, d in scene._exact_distances(one, scene.body_ids, MARGIN)):
-                links.add(link)
-    return frozenset(links)
 
 @numba.njit(cache=True)
 def _body_gaps(link_lo, link_hi, lo, hi, rank, cutoff, slack, out):  # pragma: no cover - jitted
