@@ -97,7 +97,9 @@ def _run(args: argparse.Namespace) -> int:
     from navstack.trial import run_trial
 
     # bad input raises before anything is simulated: WorldError, TrialInputError (an unwritable --out)
-    result = run_trial(_load(args, args.world), controller=args.controller, planner=args.planner, seed=args.seed,
+    world = _load(args, args.world)
+    _warn_blocked_goals("navstack run", world)
+    result = run_trial(world, controller=args.controller, planner=args.planner, seed=args.seed,
                        out_dir=args.out, render=args.render)
     out = Path(args.out)
     print(_summary(result))
@@ -133,6 +135,14 @@ def _demo(args: argparse.Namespace) -> int:
     return status
 
 
+def _warn_blocked_goals(prefix: str, world) -> None:
+    """A warning on stderr for each goal that cannot be reached without contact (:mod:`navstack.goal_check`)."""
+    from navstack.goal_check import blocked_goals
+
+    for blocked in blocked_goals(world):
+        print(f"{prefix}: warning: {blocked.message(world)}", file=sys.stderr)
+
+
 def _check_world(args: argparse.Namespace) -> int:
     from navstack.trial import check_reach, check_start
     from navstack.world import WorldError
@@ -148,6 +158,7 @@ def _check_world(args: argparse.Namespace) -> int:
             status = EXIT_BAD_INPUT
             continue
         moving = sum(getattr(o, "motion", None) is not None for o in w.obstacles)
+        _warn_blocked_goals(f"navstack check-world: {path}", w)
         print(f"{path}: ok ({w.name}: {len(w.obstacles)} obstacles{f' ({moving} moving)' if moving else ''}, "
               f"{len(w.goals)} goals, time limit {w.time_limit:g} s, robot clear of every obstacle at t = 0)")
     return status
