@@ -114,7 +114,7 @@ def test_broken_lane_is_replaced_and_its_trial_run_again(tmp_path, monkeypatch):
     """pebble's race (a worker that dies at once breaks its pool) must not lose or misreport the trial."""
     from navstack.executors import _Lane, _Task
 
-    pool = WorkerPool(1)
+    pool = WorkerPool(1, log_path=str(tmp_path / "sweep.log"))
     job = _job(tmp_path)
     replaced = []
     monkeypatch.setattr(pool, "_replace", replaced.append)
@@ -132,7 +132,7 @@ def test_broken_lane_is_replaced_and_its_trial_run_again(tmp_path, monkeypatch):
     # a worker that never started: the sweep stops
     task = _Task(job, 9.0, cf.Future())
     pool._settle(_Done(BrokenProcessPool("x")), _Lane(pool=None, started=_Event(False)), task, 0.0)
-    with pytest.raises(SweepWorkerError, match="died while starting"):
+    with pytest.raises(SweepWorkerError, match="died while starting.*see the messages above or .*sweep.log"):
         task.out.result()
     assert not pool._queue
     pool.close(cancel=True)
@@ -308,3 +308,56 @@ def test_a_closed_pool_takes_no_more_trials(tmp_path):
     pool.close(cancel=True)
     late = pool.submit(_job(tmp_path), None)
     assert late.cancelled()  # refused at once, never queued for a worker that is gone
+
+
+def test_a_workers_output_goes_to_the_sweeps_log_and_not_to_the_terminal(tmp_path, capfd):
+    log = tmp_path / "sweep.log"
+    job = _job(tmp_path)
+    talk = TrialJob(spec=job.spec, world_text=json.dumps({"name": "t", "extra": {"behaviour": "talk"}}),
+                    runner=fake_runner)
+    pool = WorkerPool(1, runner=fake_runner, log_path=str(log))
+    try:
+        assert pool.submit(talk, None).result()["error"] is None
+    finally:
+        pool.close(cancel=False)
+    text = log.read_text()
+    assert "fake trial t says this on stdout" in text and "fake trial t says this on stderr" in text
+    out, err = capfd.readouterr()
+    assert "fake trial t says" not in out + err
+
+
+def test_a_lane_running_a_trial_is_busy_and_a_late_start_names_the_log(tmp_path):
+    """Submitted, a lane is busy before its worker has started (spawning a Python takes far over 10 ms), so a
+    startup limit of 0 s is already exceeded; the error points at the sweep's log."""
+    log = tmp_path / "sweep.log"
+    pool = WorkerPool(1, runner=fake_runner, log_path=str(log))
+    try:
+        reply = pool.submit(_job(tmp_path), None)
+        assert pool._lanes[0].busy
+        time.sleep(0.01)
+        with pytest.raises(SweepWorkerError, match=f"did not start within 0 s; see {log}"):
+            pool.check(startup_timeout=0.0)
+        assert reply.result()["error"] is None
+        assert not pool._lanes[0].busy  # free again once its trial is done
+        pool.check(startup_timeout=0.0)
+    finally:
+        pool.close(cancel=True)
+
+
+def test_closing_the_pool_waits_for_the_broken_workers_to_be_stopped(monkeypatch):
+    """A replaced lane's old pool is stopped on a thread of its own; close() returns only after those end
+    (else a sweep could exit with a worker process still alive)."""
+    stopped, stop = [], executors._stop_pool
+
+    def slow_stop(old):
+        time.sleep(0.5)
+        stop(old)
+        stopped.append(old)
+
+    monkeypatch.setattr(executors, "_stop_pool", slow_stop)
+    pool = WorkerPool(1, runner=fake_runner)
+    old = pool._lanes[0].pool
+    pool._replace(pool._lanes[0])
+    assert pool._lanes[0].pool is not old and len(pool._stoppers) == 1
+    pool.close(cancel=False)
+    assert stopped[:1] == [old] and not any(t.is_alive() for t in pool._stoppers)

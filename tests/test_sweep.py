@@ -62,6 +62,9 @@ def fake_runner(world, *, controller, planner, seed, out_dir=None):
         with open(extra["exec_log"], "a") as fh:
             fh.write(f"{data['name']} {controller} {planner}\n")
     behaviour = extra.get("behaviour", "ok")
+    if behaviour == "talk":  # what a trial's own prints do in a worker
+        print(f"fake trial {data['name']} says this on stdout", flush=True)
+        print(f"fake trial {data['name']} says this on stderr", file=sys.stderr, flush=True)
     if behaviour == "raise":
         raise RuntimeError(f"fake failure in {data['name']}")
     if behaviour == "hang":
