@@ -30,6 +30,11 @@ class BadInput(Exception):
     """A user error that the CLI reports in one line with exit status 2."""
 
 
+def _mm(value: float | None) -> str:
+    """A length [m] in millimetres; None (no obstacle in the world): ``none``."""
+    return "none" if value is None else f"{value * 1e3:.1f} mm"
+
+
 def _summary(result) -> str:
     m = result.metrics
     return (
@@ -37,7 +42,7 @@ def _summary(result) -> str:
         f"goals {result.goals_reached}, sim {result.sim_time:.2f} s in {result.steps} steps, "
         f"wall {result.wall_time:.1f} s\n"
         f"  tip_error_max {m['tip_error_max'] * 1e3:.2f} mm, slither_deviation_max "
-        f"{m['slither_deviation_max'] * 1e3:.3f} mm, min_clearance {m['min_clearance'] * 1e3:.1f} mm, "
+        f"{m['slither_deviation_max'] * 1e3:.3f} mm, min_clearance {_mm(m['min_clearance'])}, "
         f"contacts {m['contacts']}"
     )
 

@@ -79,7 +79,8 @@ class TrialConfig:
     scripted_speed: float = 0.06
     """Cruise tip speed of the scripted planner [m/s]."""
     clearance_horizon: float = 0.5
-    """Distances beyond this [m] are not resolved by the clearance query (reported as this value)."""
+    """Each control step's clearance query looks this far [m]; a trial that never comes this close is measured
+    again at its end without a limit (:mod:`navstack.sim.far_clearance`), so ``min_clearance`` is exact."""
     joint_limit_time: float = 2.0
     """A joint held at its limit this long [s] while the tip lags by > ``joint_limit_lag`` ends the trial."""
     joint_limit_lag: float = 0.05
@@ -494,6 +495,21 @@ class _Simulation:
             self.goal_index += 1
 
     def run(self) -> str:
+        """Run the trial to its outcome (``reason``); ``min_clearance`` then exact beyond the horizon too."""
+        reason = self._loop()
+        if self.min_clearance >= self.cfg.clearance_horizon:  # nothing ever came within it: measure again
+            self.min_clearance = self._replayed_min_clearance()
+        return reason
+
+    def _replayed_min_clearance(self) -> float:
+        """The recorded steps measured again without a horizon (:mod:`navstack.sim.far_clearance`)."""
+        from navstack.sim.far_clearance import replay_min_clearance
+
+        qs = np.asarray(self.trajectory.q, dtype=np.float64)
+        origins = np.array([self.chain.frames(q)[1:22, :3, 3] @ self.R0.T + self.p0 for q in qs]).reshape(-1, 21, 3)
+        return replay_min_clearance(self.scene, self.body, qs, origins, np.asarray(self.trajectory.t), self.dt)
+
+    def _loop(self) -> str:
         self.client.performCollisionDetection()
         q, _ = self.body.joint_state()
         tip, F = self._measure(q)
@@ -596,7 +612,7 @@ class _Simulation:
             metrics={
                 "tip_error_max": float(self.tip_error_max),
                 "slither_deviation_max": float(self.slither_dev_max),
-                "min_clearance": float(self.min_clearance if np.isfinite(self.min_clearance) else -1.0),
+                "min_clearance": float(self.min_clearance) if np.isfinite(self.min_clearance) else None,
                 "contacts": int(self.contacts),
             },
             error=error,
