@@ -60,11 +60,11 @@ a module constant):
   most likely degrees);
 * ``time_limit`` in (0, :data:`MAX_TIME_LIMIT`] = (0, 3600] s; ``motion.start``, ``stop`` in [0,
   :data:`MAX_MOTION_TIME`] s and ``period`` in (0, :data:`MAX_MOTION_TIME`] s;
-* moving obstacles are at most :data:`MAX_OBSTACLE_SPEED` (0.5 m/s) fast: ``|velocity|`` and the peak
-  speed 2 pi ``amplitude`` / ``period`` of an oscillation.  At the default 30 Hz control rate that is at
-  most 17 mm per control step; a trial's contact check sweeps each mover over the step
-  (:meth:`navstack.sim.scene.Scene.swept_clearance`), so one that grazes a link between two control steps
-  is seen;
+* moving obstacles are at most :data:`MAX_OBSTACLE_SPEED` (5 m/s) fast: ``|velocity|`` and the peak
+  speed 2 pi ``amplitude`` / ``period`` of an oscillation.  At the default 30 Hz control rate that is up to
+  167 mm per control step; a trial's contact check sweeps each mover over the step
+  (:meth:`navstack.sim.scene.Scene.swept_clearance`), so one that grazes a link, or passes through it,
+  between two control steps is seen;
 * at most :data:`MAX_OBSTACLES` (10000) obstacles and :data:`MAX_GOALS` (1000) goals; ``extra`` nested at
   most :data:`MAX_EXTRA_DEPTH` (64) levels deep;
 * the file: a regular file (not a directory, FIFO or device) of at most :data:`MAX_WORLD_BYTES` (64 MiB;
@@ -148,8 +148,10 @@ MAX_TIME_LIMIT = 3600.0
 """Seconds: the largest ``time_limit`` (one simulated hour, about 10 minutes of wall clock)."""
 MAX_MOTION_TIME = 1e6
 """Seconds: the largest ``motion.start``, ``motion.stop`` and ``motion.period``."""
-MAX_OBSTACLE_SPEED = 0.5
-"""m/s: the fastest a moving obstacle may be (linear speed, peak speed of an oscillation)."""
+MAX_OBSTACLE_SPEED = 5.0
+"""m/s: the fastest a moving obstacle may be (linear speed, peak speed of an oscillation).  The contact check
+sweeps a mover near the robot at most 1 mm of its motion apart, so the cost, not the result, grows with speed:
+at this bound 167 distance queries per control step for each mover near the robot."""
 MAX_OBSTACLES = 10_000
 """The most obstacles a world may have."""
 MAX_GOALS = 1_000

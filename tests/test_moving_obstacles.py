@@ -70,3 +70,20 @@ def test_a_fast_mover_that_grazes_a_link_between_two_control_steps_is_a_collisio
     assert result.reason == "collision" and not result.success
     assert result.metrics["contacts"] == 1
     assert result.metrics["min_clearance"] == pytest.approx(h - R - r, abs=5e-5)  # -0.70 mm
+
+
+def test_a_mover_at_the_speed_bound_flying_through_a_link_between_two_control_steps_is_a_collision():
+    """A 1 cm sphere falling at 5 m/s (167 mm per control step) straight through a serpentine link: 83 mm above
+    its axis at one look, 83 mm below at the next, clear both times; the swept check sees it pass through,
+    as deep as the link's radius plus its own.  5.01 m/s is refused as input."""
+    R, r, dt, v = 0.025, 0.01, 1 / 30, 5.0
+    t_cross = 1.0 + dt / 2
+    through = {"type": "sphere", "center": [TIP[0] - 0.3, TIP[1], TIP[2] + v * t_cross], "radius": r,
+               "motion": {"type": "linear", "velocity": [0.0, 0.0, -v], "stop": 1.5}}
+    result = run_trial(world_from_dict(world_data(through, time_limit=3.0)), planner="scripted")
+    assert result.reason == "collision" and not result.success
+    assert result.metrics["contacts"] == 1
+    assert result.metrics["min_clearance"] == pytest.approx(-(R + r), abs=1e-3)
+    through["motion"]["velocity"] = [0.0, 0.0, -5.01]
+    with pytest.raises(WorldError, match=r"velocity\[2\]: expected a finite number in \[-5, 5\] m/s"):
+        world_from_dict(world_data(through))

@@ -550,7 +550,8 @@ MOTION_ERRORS = [
     ("type-unknown", 0, {"type": "circle"}, "obstacles[0].motion.type", '"linear", "oscillate"'),
     ("not-object", 0, [1, 2], "obstacles[0].motion", "motion object"),
     ("velocity-missing", 2, {"type": "linear"}, "obstacles[2].motion.velocity", "missing"),
-    ("too-fast", 2, {"type": "linear", "velocity": [0.4, 0.4, 0]}, "obstacles[2].motion.velocity", "0.5 m/s"),
+    ("too-fast", 2, {"type": "linear", "velocity": [4.0, 3.0, 0.01]}, "obstacles[2].motion.velocity", "5 m/s"),
+    ("too-fast-axis", 2, {"type": "linear", "velocity": [5.01, 0, 0]}, "obstacles[2].motion.velocity[0]", "5]"),
     ("velocity-1e308", 2, {"type": "linear", "velocity": [1e308, 0, 0]}, "obstacles[2].motion.velocity[0]",
      "m/s"),
     ("stop-before-start", 2, {"type": "linear", "velocity": [0, 0, 0.1], "start": 5, "stop": 4},
@@ -561,7 +562,7 @@ MOTION_ERRORS = [
      "obstacles[1].motion.axis", "non-zero"),
     ("period-zero", 1, {"type": "oscillate", "axis": [0, 0, 1], "amplitude": 0.1, "period": 0},
      "obstacles[1].motion.period", "positive"),
-    ("osc-too-fast", 1, {"type": "oscillate", "axis": [0, 0, 1], "amplitude": 1.0, "period": 2.0},
+    ("osc-too-fast", 1, {"type": "oscillate", "axis": [0, 0, 1], "amplitude": 1.0, "period": 1.25},
      "obstacles[1].motion.period", "peak speed"),
     ("phase-nan", 1, {"type": "oscillate", "axis": [0, 0, 1], "amplitude": 0.1, "period": 5, "phase": "x"},
      "obstacles[1].motion.phase", "number"),
@@ -581,7 +582,7 @@ def test_motion_errors_name_the_path(valid, spec_file, index, motion, json_path,
 
 def test_motion_dataclasses_validate():
     with pytest.raises(WorldError, match=r"LinearMotion\.velocity"):
-        LinearMotion(velocity=[1.0, 0.0, 0.0])
+        LinearMotion(velocity=[5.5, 0.0, 0.0])
     with pytest.raises(WorldError, match=r"LinearMotion\.stop"):
         LinearMotion(velocity=[0.1, 0.0, 0.0], start=3.0, stop=2.0)
     with pytest.raises(WorldError, match=r"OscillateMotion\.period"):
