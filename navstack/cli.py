@@ -5,22 +5,28 @@ an outcome), 2 for bad input (the message says what and where), 1 for an interna
 ``demo`` that means: a world file that is invalid, too large, not a regular file, has a mesh outside its
 folder, a goal out of reach or a robot starting in contact with an obstacle, or an ``--out`` that cannot
 be written, all exit 2 before anything is simulated; an exception inside the simulation is recorded in
-``result.json`` as reason ``error`` (interfaces.md) and exits 1, as does any other exception.
+``result.json`` as reason ``error`` (interfaces.md) and exits 1, as does any other exception.  Output into
+a pipe whose reader has gone (``navstack run ... | head -1``) ends the command quietly with 141, as a Unix
+tool killed by SIGPIPE (what it wrote to files before that is complete).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
 from navstack import __version__
 
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT = 0, 1, 2
+EXIT_BROKEN_PIPE = 141
+"""128 + SIGPIPE: what a shell reports for a Unix tool whose reader closed the pipe (``yes | head -1``)."""
 
 DESCRIPTION = "navstack: sensor-based slithering control of the JPL serpentine robot, simulated in PyBullet."
 EPILOG = """exit status: 0 the command ran to an outcome (a failed trial is an outcome), 2 bad input (the
-message names the file, the JSON path and what was expected), 1 internal error.
+message names the file, the JSON path and what was expected), 1 internal error, 141 the reader of the
+output closed the pipe.
 
 Start with 'navstack demo'; 'navstack COMMAND --help' describes a command."""
 BYTES_PER_MB = 1024 * 1024
@@ -388,6 +394,9 @@ def main(argv: list[str] | None = None) -> int:
     except (WorldError, BadInput, TrialInputError) as exc:
         print(f"{name}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except BrokenPipeError:  # the reader of our output went away (`navstack run ... | head -1`): not an error
+        _silence_stdout()
+        return EXIT_BROKEN_PIPE
     except (ValueError, OSError) as exc:  # other commands: an unusable path or value given by the user
         if checked:
             return _internal(name, exc, argv)
@@ -398,6 +407,14 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except Exception as exc:  # noqa: BLE001 - internal error: exit 1 with a one-line message
         return _internal(name, exc, argv)
+
+
+def _silence_stdout() -> None:
+    """Point standard output at the null device, so the interpreter's last flush cannot fail again
+    (the Python documentation's recipe for SIGPIPE)."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+    os.close(devnull)
 
 
 def _internal(name: str, exc: BaseException, argv: list[str] | None) -> int:

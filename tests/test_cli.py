@@ -64,3 +64,20 @@ def test_run_render_says_it_wrote_scene_png(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert f"wrote {out / 'result.json'}, trajectory.npz, world.json, scene.png" in printed
     assert (out / "scene.png").stat().st_size > 0
+
+
+def test_a_reader_that_closes_the_pipe_ends_the_command_quietly(tmp_path):
+    """Output into a pipe nobody reads: no 'internal error' and no traceback, exit 141 (128 + SIGPIPE)."""
+    import pathlib
+    import subprocess
+    import sys
+
+    script = ("import sys\nfrom navstack.cli import main\nimport time\ntime.sleep(0.5)\n"
+              "sys.exit(main(['check-world'] + sys.argv[1:]))\n")
+    worlds = sorted(str(p) for p in (pathlib.Path(__file__).parent.parent / "worlds").glob("*.json"))[:3]
+    proc = subprocess.Popen([sys.executable, "-c", script, *worlds], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+    proc.stdout.close()  # before the command writes its first line
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 141, err
+    assert "error" not in err and "Traceback" not in err
