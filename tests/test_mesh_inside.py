@@ -119,6 +119,29 @@ def test_a_robot_inside_a_closed_mesh_is_refused(tmp_path, capsys):
     assert not (out / "result.json").exists()
 
 
+def _turned(mesh: trimesh.Trimesh, which: slice) -> trimesh.Trimesh:
+    faces = mesh.faces.copy()
+    faces[which] = faces[which, ::-1]
+    return trimesh.Trimesh(mesh.vertices, faces, process=False)
+
+
+@pytest.mark.parametrize("case", ["every-other-face-turned", "one-face-turned", "all-turned", "duplicated"])
+def test_a_robot_inside_a_closed_mesh_is_refused_whatever_its_faces_orientation(tmp_path, case):
+    """Every other face turned: the winding numbers cancel (0 inside) and the trial inside the block was a
+    SUCCESS; each triangle twice: not watertight (each edge in four faces), the same."""
+    block = trimesh.creation.box(extents=[6.0, 6.0, 6.0])
+    mesh = {"every-other-face-turned": lambda: _turned(block, slice(None, None, 2)),
+            "one-face-turned": lambda: _turned(block, slice(0, 1)),
+            "all-turned": lambda: _turned(block, slice(None)),
+            "duplicated": lambda: trimesh.Trimesh(block.vertices, np.vstack([block.faces, block.faces]),
+                                                  process=False)}[case]()
+    world = _block_world(tmp_path, mesh, BASE_POSITION)
+    with pytest.raises(WorldError, match="is inside this mesh"):
+        check_start(load_world(world))
+    inside = points_inside(load_world(world).obstacles[1], np.array([BASE_POSITION, BASE_POSITION + [3.5, 0, 0]]))
+    assert inside.tolist() == [True, False]
+
+
 @pytest.mark.parametrize("case", ["open", "elsewhere"])
 def test_an_open_mesh_around_the_robot_or_a_closed_one_elsewhere_is_accepted(tmp_path, case):
     block = trimesh.creation.box(extents=[6.0, 6.0, 6.0])

@@ -9,7 +9,8 @@ subtend at the point over 4 pi: +-1 inside (the sign is the faces' orientation),
 mesh's shape (Jacobson, Kavan and Sorkine-Hornung, "Robust inside-outside segmentation using generalized
 winding numbers", SIGGRAPH 2013).  Each triangle's solid angle is Van Oosterom and Strackee's closed form
 (IEEE Trans. Biomed. Eng. 1983).  Only *closed* meshes (every edge shared by exactly two faces, trimesh's
-``is_watertight``) have an inside; an open surface has none and is never said to contain a point.  Points on
+``is_watertight``, once repeated triangles are dropped) have an inside; an open surface has none and is never
+said to contain a point.  The faces' orientations are made consistent first (:func:`solid`).  Points on
 the surface itself are not meaningful here: the caller has already refused any contact with it.
 """
 
@@ -38,12 +39,27 @@ def winding_numbers(vertices: ArrayLike, faces: ArrayLike, points: ArrayLike) ->
     return out
 
 
-def is_closed(vertices: ArrayLike, faces: ArrayLike) -> bool:
-    """Whether the triangles ``faces`` (F, 3) of ``vertices`` (V, 3) close up: trimesh's ``is_watertight``
-    (every edge shared by exactly two faces, coincident vertices merged first)."""
+def solid(vertices: ArrayLike, faces: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.int64]] | None:
+    """The closed, consistently oriented triangle mesh that ``faces`` (F, 3) of ``vertices`` (V, 3) bound, or
+    None if they bound nothing.  Coincident vertices are merged and repeated triangles dropped (an STL's
+    duplicates), then the mesh must be closed: every edge shared by exactly two faces (trimesh's
+    ``is_watertight``).  Faces turned against their neighbours are turned back (``trimesh.repair.fix_winding``):
+    a winding number sums the faces' signed solid angles, and a closed box with every other face flipped
+    has a winding number of 0 everywhere, a robot inside it looking outside."""
     import trimesh  # slow to import: only mesh worlds need it
 
-    return bool(trimesh.Trimesh(vertices=vertices, faces=faces, process=True).is_watertight)
+    mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=True)
+    mesh.update_faces(mesh.unique_faces())
+    if not mesh.is_watertight:
+        return None
+    if not mesh.is_winding_consistent:
+        trimesh.repair.fix_winding(mesh)
+    return np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int64)
+
+
+def is_closed(vertices: ArrayLike, faces: ArrayLike) -> bool:
+    """Whether the triangles ``faces`` (F, 3) of ``vertices`` (V, 3) close up (:func:`solid`)."""
+    return solid(vertices, faces) is not None
 
 
 def points_inside(mesh: Mesh, points: ArrayLike) -> NDArray[np.bool_]:
@@ -54,8 +70,9 @@ def points_inside(mesh: Mesh, points: ArrayLike) -> NDArray[np.bool_]:
     R = Rotation.from_euler("xyz", mesh.rpy).as_matrix()  # as the scene places it (scene._quat_xyzw_from_rpy)
     local = (pts - mesh.position) @ R  # R.T @ (p - position), row by row
     inside = np.all((local >= vertices.min(axis=0)) & (local <= vertices.max(axis=0)), axis=1)  # in its box
-    if inside.any() and is_closed(vertices, faces):  # a surface with a hole has no inside
-        inside[inside] = np.abs(winding_numbers(vertices, faces, local[inside])) > 0.5
+    closed = solid(vertices, faces) if inside.any() else None  # a surface with a hole has no inside
+    if closed is not None:
+        inside[inside] = np.abs(winding_numbers(*closed, local[inside])) > 0.5
     else:
         inside[:] = False
     return inside
