@@ -59,7 +59,7 @@ a module constant):
 * angles (every ``rpy`` value, ``motion.phase``): within +-:data:`MAX_ANGLE` (2 pi rad; a larger value is
   most likely degrees);
 * ``time_limit`` in (0, :data:`MAX_TIME_LIMIT`] = (0, 3600] s; ``motion.start``, ``stop`` in [0,
-  :data:`MAX_MOTION_TIME`] s and ``period`` in (0, :data:`MAX_MOTION_TIME`] s;
+  :data:`MAX_MOTION_TIME`] s and ``period`` in [:data:`MIN_PERIOD`, :data:`MAX_MOTION_TIME`] = [1e-3, 1e6] s;
 * moving obstacles are at most :data:`MAX_OBSTACLE_SPEED` (5 m/s) fast: ``|velocity|`` and the peak
   speed 2 pi ``amplitude`` / ``period`` of an oscillation.  At the default 30 Hz control rate that is up to
   167 mm per control step; a trial's contact check sweeps each mover over the step
@@ -148,6 +148,9 @@ MAX_TIME_LIMIT = 3600.0
 """Seconds: the largest ``time_limit`` (one simulated hour, about 10 minutes of wall clock)."""
 MAX_MOTION_TIME = 1e6
 """Seconds: the largest ``motion.start``, ``motion.stop`` and ``motion.period``."""
+MIN_PERIOD = 1e-3
+"""Seconds: the shortest ``motion.period`` (a period of 5e-324 s made ``2 pi t / period`` infinite and the trial
+crash mid-run)."""
 MAX_OBSTACLE_SPEED = 5.0
 """m/s: the fastest a moving obstacle may be (linear speed, peak speed of an oscillation).  The contact check
 sweeps a mover near the robot at most 1 mm of its motion apart, so the cost, not the result, grows with speed:
@@ -571,7 +574,7 @@ class OscillateMotion(_ValueEq):
         _set(self, "axis", _direction(_CODE, "OscillateMotion.axis", self.axis))
         _set(self, "amplitude", _number(_CODE, "OscillateMotion.amplitude", self.amplitude, lo=0.0, hi=MAX_LENGTH,
                                         unit=" m"))
-        _set(self, "period", _number(_CODE, "OscillateMotion.period", self.period, positive=True,
+        _set(self, "period", _number(_CODE, "OscillateMotion.period", self.period, lo=MIN_PERIOD,
                                      hi=MAX_MOTION_TIME, unit=" s"))
         _set(self, "phase", _number(_CODE, "OscillateMotion.phase", self.phase, lo=-MAX_ANGLE - _ANGLE_SLACK,
                                     hi=MAX_ANGLE + _ANGLE_SLACK, unit=" rad"))
@@ -946,7 +949,7 @@ def _parse_motion(ctx: _Ctx, path: str, v: Any) -> Motion:
     _object(ctx, path, v, ("type", "axis", "amplitude", "period"), ("phase",))
     axis = _direction(ctx, _join(path, "axis"), v["axis"])
     amplitude = _number(ctx, _join(path, "amplitude"), v["amplitude"], lo=0.0, hi=MAX_LENGTH, unit=" m")
-    period = _number(ctx, _join(path, "period"), v["period"], positive=True, hi=MAX_MOTION_TIME, unit=" s")
+    period = _number(ctx, _join(path, "period"), v["period"], lo=MIN_PERIOD, hi=MAX_MOTION_TIME, unit=" s")
     phase = 0.0
     if "phase" in v:
         phase = _number(ctx, _join(path, "phase"), v["phase"], lo=-MAX_ANGLE - _ANGLE_SLACK,
