@@ -354,6 +354,17 @@ def _scale(ctx: _Ctx, path: str, v: Any) -> float:
 def _string(ctx: _Ctx, path: str, v: Any, *, nonempty: bool = False) -> str:
     if not isinstance(v, str) or (nonempty and not v.strip()):
         raise ctx.error(path, f"expected a {'non-empty ' if nonempty else ''}string, got {_describe(v)}")
+    return _utf8(ctx, path, v)
+
+
+def _utf8(ctx: _Ctx, path: str, v: str) -> str:
+    """``v`` if UTF-8 can hold it: JSON's ``"\\ud800"`` decodes to a lone surrogate, which no file or
+    terminal can take (it failed as an internal error when the run folder's world.json was written)."""
+    try:
+        v.encode("utf-8")
+    except UnicodeEncodeError as exc:
+        raise ctx.error(path, f"expected text, got a string with a lone surrogate {v[exc.start]!r} at character "
+                              f"{exc.start} (an unpaired \\ud800-\\udfff escape)") from None
     return v
 
 
@@ -379,8 +390,10 @@ def _object(ctx: _Ctx, path: str, v: Any, required: tuple[str, ...], optional: t
 def _json_value(ctx: _Ctx, path: str, v: Any, depth: int = 0) -> Any:
     """A deep copy of ``v`` as plain JSON (dict/list/str/finite number/bool/null), nested at most
     :data:`MAX_EXTRA_DEPTH` levels; errors name the path."""
-    if v is None or isinstance(v, (bool, str)):
+    if v is None or isinstance(v, bool):
         return v
+    if isinstance(v, str):
+        return _utf8(ctx, path, v)
     if isinstance(v, _NonFinite):
         raise ctx.error(path, f"expected a finite number, got {v.literal} (not valid JSON)")
     if isinstance(v, np.bool_):
@@ -398,7 +411,7 @@ def _json_value(ctx: _Ctx, path: str, v: Any, depth: int = 0) -> Any:
         for k, x in v.items():
             if not isinstance(k, str):
                 raise ctx.error(path, f"object keys must be strings, got {_describe(k)}")
-            out[k] = _json_value(ctx, _join(path, k), x, depth + 1)
+            out[_utf8(ctx, path, k)] = _json_value(ctx, _join(path, k), x, depth + 1)
         return out
     if isinstance(v, (list, tuple)):
         return [_json_value(ctx, f"{path}[{i}]", x, depth + 1) for i, x in enumerate(v)]
@@ -725,7 +738,10 @@ class Mesh(_ValueEq):
     def __post_init__(self) -> None:
         if not isinstance(self.path, (str, os.PathLike)):
             raise _CODE.error("Mesh.path", f"expected a path, got {_describe(self.path)}")
-        _set(self, "path", Path(self.path).expanduser().resolve())
+        try:
+            _set(self, "path", Path(self.path).expanduser().resolve())
+        except (RuntimeError, ValueError, OSError) as exc:  # ~nosuchuser, a NUL character, a loop
+            raise _CODE.error("Mesh.path", f"expected a file path, got {str(self.path)!r} ({exc})") from None
         _set(self, "position", _coords(_CODE, "Mesh.position", self.position))
         _set(self, "rpy", _angles(_CODE, "Mesh.rpy", self.rpy))
         _set(self, "scale", _scale(_CODE, "Mesh.scale", self.scale))
@@ -961,8 +977,14 @@ def _parse_motion(ctx: _Ctx, path: str, v: Any) -> Motion:
 
 def _mesh_file(ctx: _Ctx, path: str, p: str) -> Path:
     """The resolved mesh file named by ``p``, refused if it leaves the world file's folder tree (unless
-    ``ctx.allow_mesh_outside``, or the data has no file)."""
-    file = Path(p).expanduser()
+    ``ctx.allow_mesh_outside``, or the data has no file).  In a world file ``p`` is relative to the file's
+    folder as written (``~`` is a folder name there, spec section 2); data built in code may use ``~``."""
+    if "\x00" in p:
+        raise ctx.error(path, f"expected a file path, got {json.dumps(p)} (it holds a NUL character)")
+    try:
+        file = Path(p) if ctx.file is not None else Path(p).expanduser()
+    except RuntimeError as exc:  # ~nosuchuser
+        raise ctx.error(path, f"expected a file path, got {json.dumps(p)} ({exc})") from None
     restrict = ctx.base_dir is not None and ctx.file is not None and not ctx.allow_mesh_outside
     if restrict and file.is_absolute():
         raise ctx.error(path, f"expected a path relative to the world file's folder, got the absolute path "

@@ -13,6 +13,7 @@ import pytest
 import trimesh
 
 from navstack import jpl
+from navstack.cli import main
 from navstack.world import (
     FORMAT,
     Base,
@@ -646,3 +647,39 @@ def test_saved_worlds_are_laid_out_for_reading(spec_file, tmp_path):
     assert lines[q0 + 1].startswith("      0.0, 0.0, 0.0, -1.5707963267948966, ") and len(lines[q0 + 1]) > 90
     assert lines[q0 + 3] == "    ],"
     assert load_world(dest) == w
+
+
+# ---- text and paths no file can hold (an adversarial review; each was an internal error) ------------------
+
+
+@pytest.mark.parametrize("where, json_path", [
+    (("name",), "name"), (("description",), "description"), (("family",), "family"),
+    (("extra", "note"), "extra.note"), (("extra", "key"), "extra"),
+])
+def test_a_lone_surrogate_in_any_text_is_bad_input_naming_its_path(valid, spec_file, tmp_path, capsys, where,
+                                                                   json_path):
+    """JSON's "\\ud800" is a string Python holds but UTF-8 cannot: it crashed writing the run's world.json."""
+    if where[0] == "extra":
+        valid["extra"] = {"\ud800": 1} if where[1] == "key" else {"note": "x\ud800"}
+    else:
+        valid[where[0]] = "\ud800"
+    spec_file.write_text(json.dumps(valid))  # ensure_ascii: the file holds the escape, as a user's would
+    assert main(["check-world", str(spec_file)]) == 2
+    assert f"{json_path}: expected text, got a string with a lone surrogate" in capsys.readouterr().err
+    out = tmp_path / "out"
+    assert main(["run", str(spec_file), "--out", str(out)]) == 2
+    assert not out.exists() or not any(out.iterdir())
+
+
+@pytest.mark.parametrize("mesh_path, fragment", [("a\u0000b.stl", "NUL character"),
+                                                 ("~nosuchuser/x.stl", "cannot access"),
+                                                 ("~/node.stl", "cannot access")])
+def test_odd_mesh_paths_are_bad_input_and_tilde_is_a_folder_name_in_a_world_file(valid, spec_file, capsys,
+                                                                                  mesh_path, fragment):
+    valid["obstacles"][3]["path"] = mesh_path
+    spec_file.write_text(json.dumps(valid))
+    assert main(["check-world", str(spec_file)]) == 2
+    err = capsys.readouterr().err
+    assert "obstacles[3].path: expected" in err and fragment in err and "internal error" not in err
+    with pytest.raises(WorldError, match="Mesh.path: expected a file path"):
+        Mesh(path=mesh_path if "\u0000" in mesh_path else "~nosuchuser/x.stl")
