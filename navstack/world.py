@@ -120,7 +120,8 @@ DEFAULT_TIME_LIMIT = 60.0
 DEFAULT_TOLERANCE = 0.02
 """Metres, when a goal has no ``tolerance``."""
 JOINT_LIMIT_SLACK = 1e-9
-"""Radians (metres for the lathe bed) by which ``q0`` may exceed the joint limits."""
+"""Radians (metres for the lathe bed) by which ``q0`` may exceed the joint limits (values written in degrees
+and rounded); such a value is moved onto the limit."""
 
 MAX_COORDINATE = 1000.0
 """Metres: every coordinate of a position (and of ``motion.axis``) is within +-1 km."""
@@ -532,6 +533,8 @@ def _q0(ctx: _Ctx, path: str, v: Any) -> FloatArray:
             unit = "m" if jpl.PRISMATIC[i] else "rad"
             raise ctx.error(f"{path}[{i}]", f"expected a value in [{lo:.6g}, {hi:.6g}] {unit} "
                                             f"(limits of joint {i + 1}), got {_describe(x)}")
+    q = np.clip(q, jpl.LOWER, jpl.UPPER)  # within the slack: onto the limit (the controller refuses beyond it)
+    q.setflags(write=False)
     return q
 
 

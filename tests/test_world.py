@@ -683,3 +683,18 @@ def test_odd_mesh_paths_are_bad_input_and_tilde_is_a_folder_name_in_a_world_file
     assert "obstacles[3].path: expected" in err and fragment in err and "internal error" not in err
     with pytest.raises(WorldError, match="Mesh.path: expected a file path"):
         Mesh(path=mesh_path if "\u0000" in mesh_path else "~nosuchuser/x.stl")
+
+
+@pytest.mark.parametrize("joint", [0, 5, 12])
+def test_a_q0_within_the_limit_slack_is_moved_onto_the_limit_and_runs(valid, spec_file, tmp_path, joint):
+    """q0 up to 1e-9 beyond a limit is accepted (rounding); it failed later as an internal error when the
+    controller refused it.  It is now on the limit, and a short trial runs to an outcome."""
+    q0 = list(load_world(spec_file).robot.q0)
+    q0[joint] = float(jpl.UPPER[joint]) + 9e-10
+    valid["robot"]["q0"] = q0
+    valid["obstacles"] = []
+    valid["time_limit"] = 0.2
+    spec_file.write_text(json.dumps(valid))
+    w = load_world(spec_file)
+    assert w.robot.q0[joint] == jpl.UPPER[joint]
+    assert main(["run", str(spec_file), "--out", str(tmp_path / "out"), "--planner", "scripted"]) == 0
