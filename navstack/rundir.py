@@ -3,8 +3,9 @@
 ``run_trial(..., out_dir=DIR)`` writes ``DIR/world.json`` (:func:`write_run_world`) beside
 ``result.json`` and ``trajectory.npz``, so that ``navstack animate DIR`` and ``navstack view DIR`` need
 nothing but the folder.  Mesh obstacles: their files are copied into ``DIR/meshes/`` and ``world.json``
-names them there (``meshes/<index>-<file name>``), so the run folder is self-contained: it can be moved
-or archived, and its mesh paths never leave its own folder tree.
+names them there (``meshes/<index>-<file name>``, :func:`mesh_copy_name`), so the run folder is
+self-contained: it can be moved or archived, and its mesh paths never leave its own folder tree.  A rerun
+into the same folder first removes what the earlier run wrote (:data:`RUN_FILES`).
 
 ``trajectory.npz`` holds ``t`` (T,), ``q`` (T, 20), ``q_des`` (T, 20), ``tip_des`` (T, 3)
 (interfaces.md section 3) and, optionally, ``sensed`` (T, K, 3): world points [m] the tip sensors hit
@@ -15,6 +16,7 @@ viewer draws it when a trajectory has it.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 import os
 import shutil
@@ -33,6 +35,32 @@ WORLD_FILE = "world.json"
 TRAJECTORY_FILE = "trajectory.npz"
 RESULT_FILE = "result.json"
 MESH_DIR = "meshes"
+RUN_FILES = (RESULT_FILE, TRAJECTORY_FILE, WORLD_FILE, "scene.png", "animation.mp4", "animation.gif")
+"""What a run writes into its folder; a new run into the same folder removes them first (a run folder
+holds one run: an old ``scene.png`` beside a new ``result.json`` would show another trial)."""
+MAX_NAME_BYTES = 255
+"""The longest file name most file systems take."""
+
+
+def clear_run_files(out_dir: str | os.PathLike[str]) -> None:
+    """Remove what an earlier run wrote into ``out_dir`` (:data:`RUN_FILES`; its ``meshes/`` copies stay, as
+    the folder may hold the user's own meshes there, and the new ``world.json`` names the ones it uses)."""
+    for name in RUN_FILES:
+        (Path(out_dir) / name).unlink(missing_ok=True)
+
+
+def mesh_copy_name(index: int, name: str) -> str:
+    """The name of obstacle ``index``'s mesh file ``name`` in ``meshes/``: ``<index>-<name>``, or, when
+    that is longer than :data:`MAX_NAME_BYTES`, ``<index>-<sha1 of name, 16 hex>`` and its extension
+    (which tells trimesh the format)."""
+    full = f"{index:03d}-{name}"
+    if len(full.encode("utf-8", "surrogateescape")) <= MAX_NAME_BYTES:
+        return full
+    suffix = Path(name).suffix
+    if len(suffix.encode("utf-8", "surrogateescape")) > 32:
+        suffix = ""
+    digest = hashlib.sha1(name.encode("utf-8", "surrogateescape")).hexdigest()[:16]
+    return f"{index:03d}-{digest}{suffix}"
 
 
 def write_run_world(world: World, out_dir: str | os.PathLike[str]) -> Path:
@@ -45,7 +73,7 @@ def write_run_world(world: World, out_dir: str | os.PathLike[str]) -> Path:
     obstacles = list(world.obstacles)
     for i, o in enumerate(obstacles):
         if isinstance(o, Mesh):
-            dest = out / MESH_DIR / f"{i:03d}-{o.path.name}"
+            dest = out / MESH_DIR / mesh_copy_name(i, o.path.name)
             if dest.resolve() != o.path:
                 dest.parent.mkdir(parents=True, exist_ok=True)
                 shutil.copyfile(o.path, dest)

@@ -234,11 +234,12 @@ def run_trial(
     try:
         check_start(world, built)
         out = check_out_dir(out_dir) if out_dir is not None else None
-        if out is not None:
-            from navstack.rundir import write_run_world
-
-            write_run_world(world, out)  # world.json (meshes copied to out/meshes/): animate and view read it
         sim = _Simulation(world, controller, planner, int(seed), cfg, visuals=render, built=built)
+        if out is not None:  # the trial is ready: only now replace what an earlier run left in the folder
+            from navstack.rundir import clear_run_files, write_run_world
+
+            clear_run_files(out)
+            write_run_world(world, out)  # world.json (meshes copied to out/meshes/): animate and view read it
     except BaseException:
         built[0].disconnect()
         raise

@@ -1,0 +1,65 @@
+"""A run folder holds one run: a rerun replaces what an earlier one wrote, a run that fails before it starts
+leaves the folder as it was, and a mesh with the longest legal file name is copied in (an adversarial review
+found each of these broken)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+import trimesh
+from _worlds import TIP, world_data
+
+import navstack.trial
+from navstack.rundir import MAX_NAME_BYTES, RUN_FILES, load_run, mesh_copy_name
+from navstack.trial import run_trial
+from navstack.world import load_world, world_from_dict
+
+
+def _short(name: str) -> dict:
+    data = world_data(time_limit=0.3)
+    data["name"] = name
+    return data
+
+
+def test_a_rerun_replaces_every_file_of_the_earlier_run(tmp_path):
+    out = tmp_path / "out"
+    run_trial(world_from_dict(_short("first")), planner="scripted", out_dir=out, render=True)
+    (out / "animation.mp4").write_bytes(b"an earlier run's animation")
+    assert (out / "scene.png").exists()
+    run_trial(world_from_dict(_short("second")), planner="scripted", out_dir=out)  # no pictures this time
+    assert not (out / "scene.png").exists() and not (out / "animation.mp4").exists()
+    assert json.loads((out / "result.json").read_text())["world"] == "second"
+    assert load_run(out).world.name == "second"
+    assert set(RUN_FILES) >= {"result.json", "trajectory.npz", "world.json", "scene.png", "animation.mp4"}
+
+
+def test_a_run_that_fails_before_it_starts_leaves_the_folder_as_it_was(tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    run_trial(world_from_dict(_short("first")), planner="scripted", out_dir=out)
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+
+    def broken(*args, **kwargs):
+        raise ValueError("the controller refused its start")
+
+    monkeypatch.setattr(navstack.trial, "_Simulation", broken)
+    with pytest.raises(ValueError, match="refused"):
+        run_trial(world_from_dict(_short("second")), planner="scripted", out_dir=out)
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == before  # world.json too
+
+
+def test_a_mesh_with_a_255_byte_file_name_is_copied_into_the_run_folder(tmp_path):
+    name = "p" * 251 + ".obj"
+    folder = tmp_path / "w"
+    folder.mkdir()
+    trimesh.creation.box(extents=[0.1, 0.1, 0.1]).export(folder / name)
+    data = world_data(time_limit=0.3)
+    data["obstacles"].append({"type": "mesh", "path": name, "position": (TIP + [0.0, 0.0, 1.0]).tolist()})
+    (folder / "world.json").write_text(json.dumps(data))
+    out = tmp_path / "out"
+    run_trial(load_world(folder / "world.json"), planner="scripted", out_dir=out)
+    copied = load_run(out).world.obstacles[-1].path
+    assert copied.parent == (out / "meshes").resolve() and copied.name.endswith(".obj")
+    assert len(copied.name.encode()) <= MAX_NAME_BYTES
+    assert copied.read_bytes() == (folder / name).read_bytes()
+    assert mesh_copy_name(3, "node.stl") == "003-node.stl"  # short names as before
