@@ -237,8 +237,9 @@ def _positive_mb(text: str) -> float:
         value = float(text)
     except ValueError:
         value = float("nan")
-    if not (value > 0 and value * BYTES_PER_MB < 2**62):
-        raise argparse.ArgumentTypeError(f"expected a positive number of megabytes, got {text!r}")
+    if not (value * BYTES_PER_MB >= 1 and value * BYTES_PER_MB < 2**62):  # at least a byte (1e-9 was 0 bytes)
+        raise argparse.ArgumentTypeError(f"expected a number of megabytes from {1 / BYTES_PER_MB:.3g} (one byte) "
+                                         f"to {2**62 / BYTES_PER_MB:.3g}, got {text!r}")
     return value
 
 

@@ -239,6 +239,11 @@ def test_world_size_and_kind_limits_on_the_command_line(tmp_path, capsys):
     assert main(["check-world", "--max-world-mb", "0.0001", small]) == 2
     assert "--max-world-mb" in capsys.readouterr().err
     assert main(["check-world", "--max-world-mb", "1", small]) == 0
+    for tiny in ("1e-9", "0", "-1", "nan"):  # below one byte: 1e-9 passed as 0 bytes, then an internal error
+        with pytest.raises(SystemExit) as ei:
+            main(["check-world", "--max-world-mb", tiny, small])
+        assert ei.value.code == 2
+        assert "--max-world-mb: expected a number of megabytes from 9.54e-07 (one byte)" in capsys.readouterr().err
 
 
 # ---- 7. every message names the field that is wrong ---------------------------------------------------
