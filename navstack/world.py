@@ -980,17 +980,18 @@ def _parse_motion(ctx: _Ctx, path: str, v: Any) -> Motion:
 
 def _mesh_file(ctx: _Ctx, path: str, p: str) -> Path:
     """The resolved mesh file named by ``p``, refused if it leaves the world file's folder tree (unless
-    ``ctx.allow_mesh_outside``, or the data has no file).  In a world file ``p`` is relative to the file's
-    folder as written (``~`` is a folder name there, spec section 2); data built in code may use ``~``."""
+    ``ctx.allow_mesh_outside``, or the data has no file).  A leading ``~`` is the user's home folder (so a
+    path outside the world file's folder)."""
     if "\x00" in p:
         raise ctx.error(path, f"expected a file path, got {json.dumps(p)} (it holds a NUL character)")
     try:
-        file = Path(p) if ctx.file is not None else Path(p).expanduser()
+        file = Path(p).expanduser()
     except RuntimeError as exc:  # ~nosuchuser
         raise ctx.error(path, f"expected a file path, got {json.dumps(p)} ({exc})") from None
     restrict = ctx.base_dir is not None and ctx.file is not None and not ctx.allow_mesh_outside
     if restrict and file.is_absolute():
-        raise ctx.error(path, f"expected a path relative to the world file's folder, got the absolute path "
+        raise ctx.error(path, f"expected a path relative to the world file's folder, got the "
+                              f"{'home' if p.startswith('~') else 'absolute'} path "
                               f"{json.dumps(p)} (to use meshes outside it, pass --allow-mesh-outside / "
                               f"allow_mesh_outside=True)")
     if not file.is_absolute():
