@@ -21,7 +21,14 @@ Conventions: a trial counts as a success only if ``success`` is ``true``; trials
 without ``family`` is grouped under ``(none)``; one without ``difficulty`` under ``-``. A final line cut
 short by a killed sweep (no newline, not JSON) is ignored with a note in the report, as
 :func:`navstack.sweep.read_results` does; any other malformed line, an unknown ``reason``, a missing or
-mistyped field, or a repeated ``trial_id`` is a :class:`ReportError` naming the file and line.
+mistyped field, or a repeated ``trial_id`` is a :class:`ReportError` naming the file and line. Types:
+``difficulty``, ``sim_time``, ``wall_time`` and the float metrics are null or numbers within
++-:data:`MAX_VALUE` (1e9; times and the metrics other than ``min_clearance`` not negative),
+``goals_reached``, ``steps``, ``seed``, ``world_seed`` and ``metrics.contacts`` null or integers >= 0,
+``world``, ``world_id`` and the ``provenance`` fields null or strings. A line that contradicts itself is
+refused, never counted: ``success`` must be true exactly when ``reason`` is ``reached``, and a success must
+not have ``metrics.contacts`` > 0, a negative ``metrics.min_clearance``, ``goals_reached`` 0 or
+``retracted`` false.
 
 The plots use matplotlib's object API (:class:`matplotlib.figure.Figure` rendered by Agg), so no global
 backend is changed.
@@ -179,42 +186,103 @@ def _is_number(x: Any) -> bool:
     return isinstance(x, int | float) and not isinstance(x, bool)
 
 
+MAX_VALUE = 1e9
+"""The largest magnitude of a number the report reads (``difficulty``, times, metrics): far beyond any real
+value (worlds are at most 1 km across, trials at most an hour long, the generator's difficulty is in [0, 1]),
+and small enough that sums, percentiles and plot axes cannot overflow."""
+
+
+def _show(v: Any) -> str:
+    """``repr(v)``, shortened (a line may hold a 400-digit integer)."""
+    text = repr(v)
+    return text if len(text) <= 60 else f"{text[:40]}... ({len(text)} characters)"
+
+
+def _number_problem(v: Any, *, nonneg: bool = False) -> str | None:
+    """Why ``v`` is not null or a number in [-:data:`MAX_VALUE`, :data:`MAX_VALUE`] ([0, ...] if ``nonneg``)."""
+    if v is None:
+        return None
+    expected = "a number in [0, 1e9]" if nonneg else "a number in [-1e9, 1e9]"
+    if not _is_number(v) or not (-MAX_VALUE <= v <= MAX_VALUE) or (nonneg and v < 0):  # NaN fails too
+        return f"must be {expected} or null, got {_show(v)}"
+    return None
+
+
+def _count_problem(v: Any) -> str | None:
+    """Why ``v`` is not an integer >= 0 or null, or None."""
+    if v is None or (isinstance(v, int) and not isinstance(v, bool) and v >= 0):
+        return None
+    return f"must be an integer >= 0 or null, got {_show(v)}"
+
+
+PROVENANCE_KEYS = ("navstack", "commit", "python", "pybullet", "numpy", "host", "backend")
+"""The ``provenance`` fields of interfaces.md section 4: each a string or null."""
+
+
 def _check_record(rec: Any) -> str | None:
     """Why ``rec`` cannot be summarised, or None."""
     if not isinstance(rec, Mapping):
         return f"expected a JSON object, got {type(rec).__name__}"
     for key in ("controller", "planner", "reason"):
         if not isinstance(rec.get(key), str) or not rec.get(key):
-            return f"field '{key}' must be a non-empty string, got {rec.get(key)!r}"
+            return f"field '{key}' must be a non-empty string, got {_show(rec.get(key))}"
     if not isinstance(rec.get("success"), bool):
-        return f"field 'success' must be true or false, got {rec.get('success')!r}"
+        return f"field 'success' must be true or false, got {_show(rec.get('success'))}"
     if rec["reason"] not in REASONS:
-        return f"field 'reason' is {rec['reason']!r}, expected one of {list(REASONS)}"
+        return f"field 'reason' is {_show(rec['reason'])}, expected one of {list(REASONS)}"
     if rec["success"] and rec["reason"] != "reached":
         return f"field 'reason' is {rec['reason']!r} but 'success' is true"
+    if not rec["success"] and rec["reason"] == "reached":
+        return "field 'reason' is 'reached' but 'success' is false"
     fam = rec.get("family")
     if fam is not None and not isinstance(fam, str):
-        return f"field 'family' must be a string or null, got {fam!r}"
-    for key in ("difficulty", "sim_time"):
-        v = rec.get(key)
-        if v is not None and not (_is_number(v) and math.isfinite(v)):
-            return f"field '{key}' must be a finite number or null, got {v!r}"
+        return f"field 'family' must be a string or null, got {_show(fam)}"
+    for key in ("world", "world_id"):
+        if rec.get(key) is not None and not isinstance(rec[key], str):
+            return f"field '{key}' must be a string or null, got {_show(rec[key])}"
+    for key, why in (("difficulty", _number_problem(rec.get("difficulty"))),
+                     ("sim_time", _number_problem(rec.get("sim_time"), nonneg=True)),
+                     ("wall_time", _number_problem(rec.get("wall_time"), nonneg=True)),
+                     ("goals_reached", _count_problem(rec.get("goals_reached"))),
+                     ("steps", _count_problem(rec.get("steps"))),
+                     ("seed", _count_problem(rec.get("seed"))),
+                     ("world_seed", _count_problem(rec.get("world_seed")))):
+        if why is not None:
+            return f"field '{key}' {why}"
     metrics = rec.get("metrics")
     if metrics is not None:
         if not isinstance(metrics, Mapping):
-            return f"field 'metrics' must be an object, got {metrics!r}"
-        for key in ("min_clearance", "slither_deviation_max"):
-            v = metrics.get(key)
-            if v is not None and not (_is_number(v) and math.isfinite(v)):
-                return f"field 'metrics.{key}' must be a finite number or null, got {v!r}"
+            return f"field 'metrics' must be an object, got {_show(metrics)}"
+        for key, why in (("min_clearance", _number_problem(metrics.get("min_clearance"))),
+                         ("slither_deviation_max", _number_problem(metrics.get("slither_deviation_max"),
+                                                                   nonneg=True)),
+                         ("tip_error_max", _number_problem(metrics.get("tip_error_max"), nonneg=True)),
+                         ("contacts", _count_problem(metrics.get("contacts")))):
+            if why is not None:
+                return f"field 'metrics.{key}' {why}"
     tid = rec.get("trial_id")
     if tid is not None and not isinstance(tid, str):
-        return f"field 'trial_id' must be a string, got {tid!r}"
+        return f"field 'trial_id' must be a string, got {_show(tid)}"
     if "retracted" in rec and not isinstance(rec["retracted"], bool):
-        return f"field 'retracted' must be true or false, got {rec['retracted']!r}"
+        return f"field 'retracted' must be true or false, got {_show(rec['retracted'])}"
     prov = rec.get("provenance")
-    if prov is not None and not isinstance(prov, Mapping):
-        return f"field 'provenance' must be an object, got {prov!r}"
+    if prov is not None:
+        if not isinstance(prov, Mapping):
+            return f"field 'provenance' must be an object, got {_show(prov)}"
+        for key in PROVENANCE_KEYS:
+            if prov.get(key) is not None and not isinstance(prov[key], str):
+                return f"field 'provenance.{key}' must be a string or null, got {_show(prov[key])}"
+    if rec["success"]:  # a success must not contradict itself: a wrong success is the worst error a report can make
+        met = metrics or {}
+        if met.get("contacts"):
+            return f"'success' is true but 'metrics.contacts' is {met['contacts']} (a success has no contact)"
+        if met.get("min_clearance") is not None and met["min_clearance"] < 0:
+            return (f"'success' is true but 'metrics.min_clearance' is {met['min_clearance']!r} "
+                    "(negative: the robot penetrated an obstacle)")
+        if rec.get("goals_reached") == 0:
+            return "'success' is true but 'goals_reached' is 0 (a world has at least one goal)"
+        if rec.get("retracted") is False:
+            return "'success' is true but 'retracted' is false (a retraction world needs the robot back out)"
     return None
 
 

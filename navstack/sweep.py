@@ -14,7 +14,8 @@ Trial list
     (``SweepConfig.retract``) asks the generator for worlds the robot must back out of
     (``generate_world(..., retract=True)``, interfaces.md section 2a): same seeds, ids ending in ``__retract``.
 
-Outputs in ``DIR`` (only this process, the driver, writes them; workers return data)
+Outputs in ``DIR`` (only this process, the driver, writes them; workers return data). ``DIR`` may not be the
+``--worlds`` folder (its ``sweep.json`` would be listed as a world by the next run); a subfolder is fine.
     * ``sweep.json``: the trial list (and the config / command that made it). A rerun whose trial list differs
       is refused with :class:`SweepError`; use a new ``--out`` directory instead.
     * ``results.jsonl``: one line per finished trial: the ``result.json`` fields of interfaces.md section 3
@@ -39,10 +40,11 @@ Resume and crash safety
     once a trial has finished, so a Ctrl-C, ``kill`` or power loss never records a trial twice, and a
     recorded trial is never lost. If the driver was killed in the middle of writing a line, the file ends
     with an unterminated line: on resume (and in :func:`read_results`) a last line that lacks its final
-    newline and is not valid JSON is recognised as such a truncated write and dropped (the file is truncated
-    back to the last complete line, and that trial runs again); a complete last line without its newline is
-    kept and terminated before anything is appended. Any other malformed line is an error naming the file
-    and line: it is never silently discarded.
+    newline and is not valid JSON (also: nested too deeply) is recognised as such a truncated write and
+    dropped (the file is truncated back to the last complete line, and that trial runs again); a complete
+    last line without its newline is kept and terminated before anything is appended. Any other malformed
+    line (also one holding ``NaN`` or ``Infinity``, which the writer never writes) is an error naming the
+    file and line: it is never silently discarded.
 
 Failures
     A trial whose runner raises, whose worker process dies, which exceeds ``trial_timeout`` seconds of wall
@@ -99,6 +101,9 @@ SWEEP_NAME = "sweep.json"
 WORLDS_DIR = "worlds"
 LOG_NAME = "workers.log"
 LOCK_NAME = "sweep.lock"
+MAX_DIFFICULTY = 1e9
+"""A world file's ``extra.difficulty`` beyond +-this reads as absent (``navstack report`` refuses larger numbers:
+:data:`navstack.report.MAX_VALUE`)."""
 METRIC_KEYS = ("tip_error_max", "slither_deviation_max", "min_clearance", "contacts")
 
 Runner = Callable[..., Any]
@@ -172,9 +177,10 @@ class SweepConfig:
     """What ``navstack trials`` runs.
 
     Exactly one world source: ``families`` (generate ``count`` worlds per family and difficulty from
-    ``seed``) or ``worlds_dir`` (every ``*.json`` directly in that folder, sorted by name, each run ``count``
-    times with different noise seeds). ``difficulties`` are passed to the generator (ignored for
-    ``worlds_dir``; there the difficulty is read from the world's ``extra.difficulty`` when present).
+    ``seed``) or ``worlds_dir`` (every ``*.json`` file directly in that folder, and every dangling symbolic
+    link so named (its trials are ``error`` lines), sorted by name, each run ``count`` times with different
+    noise seeds). ``difficulties`` are passed to the generator (ignored for ``worlds_dir``; there the
+    difficulty is read from the world's ``extra.difficulty`` when it is a number in [-1e9, 1e9]).
     ``retract`` (generated worlds only): generate worlds the robot must back out of.
     """
 
@@ -250,11 +256,14 @@ def _generator_supports_retract(generator: Generator | None = None) -> bool:
 def _world_file_info(path: Path) -> tuple[str | None, float | None, bool]:
     """(family, difficulty, retract) of a world file, read without validation (the trial validates).
 
-    A file that cannot be read or parsed, or whose fields have other types, gives ``(None, None, False)``: its
-    trials are recorded as ``error`` lines when the sweep reaches them (the rest of the sweep runs)."""
+    A file that cannot be read or parsed (also: nested too deeply, an integer too long to parse) gives
+    ``(None, None, False)``: its trials are recorded as ``error`` lines when the sweep reaches them (the rest
+    of the sweep runs). A field of another type, and a difficulty that is not a number in [-1e9, 1e9]
+    (:data:`MAX_DIFFICULTY`), read as absent; a non-finite one (NaN, 1e400, a 400-digit integer) also makes
+    the trial an ``error`` line, as the world check names the field."""
     try:
         data = json.loads(path.read_text(encoding="utf-8-sig"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+    except (OSError, ValueError, RecursionError):  # ValueError: bad JSON, bad UTF-8, > 4300-digit integer
         return None, None, False
     if not isinstance(data, dict):
         return None, None, False
@@ -265,8 +274,12 @@ def _world_file_info(path: Path) -> tuple[str | None, float | None, bool]:
     if difficulty is None and isinstance(extra, dict) and isinstance(extra.get("generator"), dict):
         difficulty = extra["generator"].get("difficulty")  # a world written by navstack generate
     if isinstance(difficulty, bool) or not isinstance(difficulty, int | float):
-        difficulty = None
-    return family, (float(difficulty) if difficulty is not None else None), retract
+        return family, None, retract
+    try:
+        value = float(difficulty)
+    except OverflowError:  # an integer beyond the float range
+        return family, None, retract
+    return family, (value if -MAX_DIFFICULTY <= value <= MAX_DIFFICULTY else None), retract
 
 
 def build_specs(config: SweepConfig) -> list[TrialSpec]:
@@ -301,10 +314,14 @@ def build_specs(config: SweepConfig) -> list[TrialSpec]:
                                 planner=planner, seed=trial_seed, index=index, family=fam,
                                 difficulty=diff, world_seed=world_seed, retract=config.retract))
     else:
-        folder = Path(config.worlds_dir).expanduser().resolve()  # type: ignore[arg-type]
+        try:
+            folder = Path(config.worlds_dir).expanduser().resolve()  # type: ignore[arg-type]
+        except (OSError, RuntimeError) as exc:  # RuntimeError: a loop of symbolic links (Python < 3.13)
+            raise SweepError(f"--worlds: {config.worlds_dir}: {exc}") from exc
         if not folder.is_dir():
             raise SweepError(f"--worlds: {folder} is not a directory")
-        files = sorted(p for p in folder.glob("*.json") if p.is_file())
+        # a dangling symbolic link is listed too (its trials become error lines, as for an unreadable file)
+        files = sorted(p for p in folder.glob("*.json") if p.is_file() or (p.is_symlink() and not p.exists()))
         if not files:
             raise SweepError(f"--worlds: no *.json world files in {folder}")
         infos = [(p, *_world_file_info(p)) for p in files]
@@ -374,13 +391,14 @@ def read_results(path: str | Path) -> ResultsFile:
         raw = data[pos:end]
         if raw.strip():
             try:
-                obj = json.loads(raw.decode("utf-8"))
+                obj = json.loads(raw.decode("utf-8"), parse_constant=_refuse_constant)
                 if not isinstance(obj, dict):
                     raise ValueError(f"expected a JSON object, got {type(obj).__name__}")
-            except (ValueError, UnicodeDecodeError) as exc:
-                if not terminated:
+            except (ValueError, RecursionError) as exc:  # RecursionError: nested too deeply
+                if not terminated and not isinstance(exc, _NonJSONConstant):
                     return ResultsFile(path, records, numbers, pos, True)
-                raise SweepError(f"{path}, line {lineno}: malformed result line ({exc})") from exc
+                why = "nested too deeply" if isinstance(exc, RecursionError) else exc
+                raise SweepError(f"{path}, line {lineno}: malformed result line ({why})") from exc
             if not terminated:  # complete JSON but missing newline: keep it, the writer will fix the ending
                 records.append(obj)
                 numbers.append(lineno)
@@ -389,6 +407,16 @@ def read_results(path: str | Path) -> ResultsFile:
             numbers.append(lineno)
         pos = end
     return ResultsFile(path, records, numbers, len(data), False)
+
+
+class _NonJSONConstant(ValueError):
+    pass
+
+
+def _refuse_constant(name: str) -> Any:
+    """``NaN`` / ``Infinity`` are not JSON and the writer never writes them: a line holding one is malformed,
+    never a truncated write."""
+    raise _NonJSONConstant(f"{name} is not valid JSON")
 
 
 def _encode(record: dict[str, Any]) -> bytes:
@@ -602,7 +630,10 @@ def run_sweep(specs: Iterable[TrialSpec], out_dir: str | Path, jobs: int | None 
     """
     specs = list(specs)
     _check_unique(specs)
-    out = Path(out_dir).expanduser().resolve()
+    try:
+        out = Path(out_dir).expanduser().resolve()
+    except (OSError, RuntimeError) as exc:  # RuntimeError: a loop of symbolic links (Python < 3.13)
+        raise SweepError(f"--out: {out_dir}: {exc}") from exc
     if jobs is not None and (isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1):
         raise SweepError(f"jobs must be an integer >= 1, got {jobs!r}")
     if trial_timeout is not None and not (isinstance(trial_timeout, int | float) and trial_timeout > 0):
@@ -612,6 +643,10 @@ def run_sweep(specs: Iterable[TrialSpec], out_dir: str | Path, jobs: int | None 
     _check_picklable("runner", runner)
     _check_picklable("generator", generator)
     cfg = config.to_dict() if isinstance(config, SweepConfig) else config
+    if any(not s.generated and Path(s.world_file).expanduser().parent.resolve() == out for s in specs):
+        raise SweepError(f"--out: {out} is the --worlds folder; the sweep's own {SWEEP_NAME} there would be read "
+                         "as a world file by the next run, so the sweep could not be resumed. Choose another "
+                         "--out (a subfolder of the worlds folder is fine)")
     if out.exists() and not out.is_dir():
         raise SweepError(f"--out: {out} exists and is not a directory")
     out.mkdir(parents=True, exist_ok=True)
@@ -647,6 +682,9 @@ def _job(spec: TrialSpec, run: _Run) -> TrialJob | str:
     text = None
     if not spec.generated:
         path = Path(spec.world_file)
+        if path.is_symlink() and not path.exists():
+            return (f"{path}: cannot read world file: a symbolic link to {os.readlink(path)}, which leads to no "
+                    "file (a missing target or a loop of links)")
         try:
             text = path.read_bytes().decode("utf-8")
         except (OSError, UnicodeDecodeError) as exc:
@@ -655,6 +693,10 @@ def _job(spec: TrialSpec, run: _Run) -> TrialJob | str:
             json.loads(text.lstrip("\ufeff"))
         except json.JSONDecodeError as exc:
             return f"{path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}"
+        except RecursionError:
+            return f"{path}: invalid JSON: nested too deeply"
+        except ValueError as exc:  # an integer of more than 4300 digits (sys.get_int_max_str_digits)
+            return f"{path}: invalid JSON: {exc}"
     return TrialJob(spec=spec, world_text=text, keep_files=run.keep_trajectories or run.animate_failures,
                     runner=run.runner,
                     generator=run.generator)
@@ -823,6 +865,17 @@ def _write_if_changed(path: Path, data: bytes) -> None:
 # --------------------------------------------------------------------------------------------------------
 
 
+def _timeout_arg(text: str) -> float:
+    """``--trial-timeout``: a finite number of seconds >= 0 (0 = no limit); anything else is bad input."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"expected a number of seconds >= 0 (0 = no limit), got {text!r}")
+    return value
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the ``navstack trials`` options to ``parser`` (see :func:`run_from_args`)."""
     from navstack.registry import CONTROLLERS, FAMILIES, PLANNERS
@@ -851,7 +904,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--ray-address", metavar="ADDR", default=None,
                         help="Ray cluster to use with --backend ray (default: $RAY_ADDRESS, else a new Ray "
                              "instance on this machine)")
-    parser.add_argument("--trial-timeout", type=float, default=DEFAULT_TRIAL_TIMEOUT, metavar="SEC",
+    parser.add_argument("--trial-timeout", type=_timeout_arg, default=DEFAULT_TRIAL_TIMEOUT, metavar="SEC",
                         help=f"wall-clock limit per trial, s (default {DEFAULT_TRIAL_TIMEOUT:g}; 0 = none)")
     parser.add_argument("--keep-trajectories", action="store_true",
                         help="write each trial's result.json and trajectory.npz under DIR/trials/")

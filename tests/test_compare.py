@@ -263,3 +263,17 @@ def test_the_command_line_says_what_it_wrote_and_only_then(tmp_path, capsys):
     assert capsys.readouterr().err == f"wrote {out / 'compare.md'} and {out / 'compare.png'}\n"
     assert compare.run_from_args(_args([str(a), str(a), "--out", str(out), "--no-plots"])) == 0
     assert capsys.readouterr().err == f"wrote {out / 'compare.md'}\n"
+
+
+@pytest.mark.parametrize(("change", "needle"), [
+    ({"world_id": [1]}, "field 'world_id' must be a string or null, got [1]"),  # once: unhashable, TypeError
+    ({"provenance": {"navstack": [1], "commit": None}}, "field 'provenance.navstack' must be a string or null"),
+    ({"difficulty": int("1" + "0" * 400)}, "field 'difficulty' must be a number in [-1e9, 1e9] or null"),
+])
+def test_mistyped_fields_are_bad_input_naming_the_line(tmp_path, capsys, change, needle):
+    recs = sweep_records({("truss", i): i % 2 == 0 for i in range(4)})
+    a = _write(tmp_path / "a", recs)
+    recs[2] = {**recs[2], **change}
+    b = _write(tmp_path / "b", recs)
+    assert compare.run_from_args(_args([str(a), str(b)])) == 2
+    assert f"{b / 'results.jsonl'}, line 3: {needle}" in capsys.readouterr().err

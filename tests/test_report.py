@@ -76,7 +76,8 @@ def synthetic_records(seed: int = 1) -> list[dict]:
                         "sim_time": None if err else float(rng.uniform(5, 40)), "steps": None, "wall_time": 1.0,
                         "metrics": {"tip_error_max": None, "contacts": None,
                                     "slither_deviation_max": None if err else float(rng.uniform(0, 0.05)),
-                                    "min_clearance": None if err else float(rng.uniform(-0.01, 0.1))},
+                                    "min_clearance": None if err else  # a success never penetrates
+                                    abs(float(rng.uniform(-0.01, 0.1))) if ok else float(rng.uniform(-0.01, 0.1))},
                         "family": fam, "difficulty": diff,
                     }
                     if fam is None and rng.random() < 0.5:
@@ -227,9 +228,53 @@ def test_truncated_last_line_is_ignored_with_a_note(tmp_path):
     ('GOOD\n{"controller": "slither", "planner": "field", "success": true, "reason": "collision"}\n',
      "line 2: field 'reason' is 'collision' but 'success' is true"),
     ('GOOD\n{"controller": "s", "planner": "f", "success": false, "reason": "timeout", "difficulty": "hard"}\n',
-     "line 2: field 'difficulty' must be a finite number or null, got 'hard'"),
+     "line 2: field 'difficulty' must be a number in [-1e9, 1e9] or null, got 'hard'"),
     ('GOOD\n{"controller": "s", "planner": "f", "success": false, "reason": "timeout", "sim_time": NaN}\n',
-     "line 2: field 'sim_time' must be a finite number or null"),
+     "line 2: malformed result line (NaN is not valid JSON)"),
+    ('GOOD\n{"controller": "s", "planner": "f", "success": false, "reason": "timeout", "sim_time": 1e400}\n',
+     "line 2: field 'sim_time' must be a number in [0, 1e9] or null, got inf"),
+    # numbers too large for a float (OverflowError) or for the statistics and plots
+    (f'GOOD\n{{"controller": "s", "planner": "f", "success": false, "reason": "timeout", "sim_time": 1{"0" * 400}}}\n',
+     "line 2: field 'sim_time' must be a number in [0, 1e9] or null, got 1000000000000000000000000000000000000000... "
+     "(401 characters)"),
+    (f'GOOD\n{{"controller": "s", "planner": "f", "success": false, "reason": "timeout", '
+     f'"difficulty": -1{"0" * 400}}}\n',
+     "line 2: field 'difficulty' must be a number in [-1e9, 1e9] or null"),
+    ('GOOD\n{"controller": "s", "planner": "f", "success": false, "reason": "timeout", "difficulty": 1e308}\n',
+     "line 2: field 'difficulty' must be a number in [-1e9, 1e9] or null, got 1e+308"),
+    (f'GOOD\n{{"controller": "s", "planner": "f", "success": false, "reason": "timeout", "metrics": '
+     f'{{"min_clearance": 1{"0" * 400}}}}}\n', "line 2: field 'metrics.min_clearance' must be a number in [-1e9, 1e9]"),
+    ('GOOD\n{"controller": "s", "planner": "f", "success": false, "reason": "timeout", "sim_time": -1}\n',
+     "line 2: field 'sim_time' must be a number in [0, 1e9] or null, got -1"),
+    # deeply nested: a RecursionError in the parser
+    ("GOOD\n" + "[" * 100000 + "\nGOOD\n", "line 2: malformed result line (nested too deeply)"),
+    # types (they once went into sets and dict keys: TypeError)
+    ('GOOD\n{"controller": "s", "planner": "f", "success": false, "reason": "timeout", '
+     '"provenance": {"navstack": [1], "commit": null}}\n',
+     "line 2: field 'provenance.navstack' must be a string or null, got [1]"),
+    ('GOOD\n{"controller": "s", "planner": "f", "success": false, "reason": "timeout", "world_id": [1]}\n',
+     "line 2: field 'world_id' must be a string or null, got [1]"),
+    ('GOOD\n{"controller": "s", "planner": "f", "success": false, "reason": "timeout", "world_seed": "7"}\n',
+     "line 2: field 'world_seed' must be an integer >= 0 or null, got '7'"),
+    ('GOOD\n{"controller": "s", "planner": "f", "success": false, "reason": "timeout", "metrics": '
+     '{"contacts": "x"}}\n', "line 2: field 'metrics.contacts' must be an integer >= 0 or null, got 'x'"),
+    ('GOOD\n{"controller": "s", "planner": "f", "success": false, "reason": "timeout", "metrics": '
+     '{"contacts": 1.5}}\n', "line 2: field 'metrics.contacts' must be an integer >= 0 or null, got 1.5"),
+    ('GOOD\n{"controller": "s", "planner": "f", "success": false, "reason": "timeout", "goals_reached": "y"}\n',
+     "line 2: field 'goals_reached' must be an integer >= 0 or null, got 'y'"),
+    ('GOOD\n{"controller": "s", "planner": "f", "success": false, "reason": "timeout", "steps": true}\n',
+     "line 2: field 'steps' must be an integer >= 0 or null, got True"),
+    # a success that contradicts itself is refused, never counted
+    ('GOOD\n{"controller": "s", "planner": "f", "success": true, "reason": "reached", "metrics": {"contacts": 5}}\n',
+     "line 2: 'success' is true but 'metrics.contacts' is 5 (a success has no contact)"),
+    ('GOOD\n{"controller": "s", "planner": "f", "success": true, "reason": "reached", "metrics": '
+     '{"min_clearance": -0.001}}\n', "line 2: 'success' is true but 'metrics.min_clearance' is -0.001"),
+    ('GOOD\n{"controller": "s", "planner": "f", "success": true, "reason": "reached", "goals_reached": 0}\n',
+     "line 2: 'success' is true but 'goals_reached' is 0"),
+    ('GOOD\n{"controller": "s", "planner": "f", "success": true, "reason": "reached", "retracted": false}\n',
+     "line 2: 'success' is true but 'retracted' is false"),
+    ('GOOD\n{"controller": "s", "planner": "f", "success": false, "reason": "reached"}\n',
+     "line 2: field 'reason' is 'reached' but 'success' is false"),
     ('GOOD\n{"controller": "s", "planner": "f", "success": false, "reason": "timeout", "metrics": '
      '{"min_clearance": "far"}}\n', "line 2: field 'metrics.min_clearance'"),
     ('GOOD\n{"trial_id": "t0000", "controller": "s", "planner": "f", "success": false, "reason": "timeout"}\n',
@@ -305,7 +350,7 @@ def test_retraction_column_counts_only_records_that_carry_the_key(tmp_path):
     flags = {}
     for i, r in enumerate(recs):
         if r.get("family") == "truss":  # the truss worlds ask for retraction
-            r["retracted"] = bool(r["success"] and i % 2 == 0)
+            r["retracted"] = bool(r["success"] or i % 2 == 0)  # a success has retracted
             flags[r["trial_id"]] = r["retracted"]
     write_jsonl(tmp_path / "results.jsonl", recs)
     text = write_report(tmp_path, plots=False).read_text()
@@ -381,3 +426,21 @@ def test_the_plots_draw_the_numbers_of_the_tables(tmp_path, monkeypatch):
     assert [r for r, _, _ in stacked] == [r for r in report.REASONS if r != "reached" and any(
         x["reason"] == r for x in recs)]
     assert report.Stats.of([]).n == 0
+
+
+def test_numbers_at_the_bound_make_every_plot_without_a_warning(tmp_path):
+    """Difficulties of +-1e308 once left no report.md ('arange: cannot compute length', overflow warnings):
+    such numbers are refused (test_bad_results_name_file_and_line); up to +-1e9 every plot is drawn."""
+    import warnings
+
+    recs = []
+    for i, d in enumerate([1e9, -1e9, 1e9, -1e9, 0.5]):
+        ok = i % 2 == 0
+        recs.append({"trial_id": f"t{i}", "controller": "slither", "planner": "field", "success": ok,
+                     "reason": "reached" if ok else "timeout", "family": "truss", "difficulty": d, "sim_time": 1e9,
+                     "metrics": {"min_clearance": abs(d) if ok else d, "slither_deviation_max": 1e9}})
+    write_jsonl(tmp_path / "results.jsonl", recs)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        text = write_report(tmp_path).read_text()
+    assert "(plots/success_vs_difficulty.png)" in text and "(plots/min_clearance.png)" in text

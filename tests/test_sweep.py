@@ -745,3 +745,128 @@ def test_an_interrupt_while_a_line_is_recorded_comes_after_its_count():
         stop.set()
         signal.signal(signal.SIGINT, old)
     assert done == ["line", "count"]
+
+
+# ---------------------------------------------------------------------------------------------- hardening
+
+
+def _strict_json(path: Path):
+    def refuse(name):
+        raise AssertionError(f"{path} holds {name}")
+
+    return json.loads(path.read_text(), parse_constant=refuse)
+
+
+def test_world_files_with_unusable_fields_neither_stop_nor_break_the_sweep(tmp_path):
+    """A non-finite or float-overflowing ``extra.difficulty`` once stopped a sweep for good ('Out of range float
+    values are not JSON compliant', or 'internal error: OverflowError'); it reads as absent (the world check of
+    the real runner names the field), and files the parser cannot take become error lines."""
+    folder = write_worlds(tmp_path / "in", 1)
+    texts = {
+        "nan": '{"name": "nan", "family": "truss", "extra": {"difficulty": NaN}}',
+        "inf": '{"name": "inf", "extra": {"difficulty": 1e400}}',
+        "long": '{"name": "long", "extra": {"difficulty": 1' + "0" * 400 + "}}",
+        "family": '{"name": "family", "family": [1], "retract": "yes", "extra": {"difficulty": 0.5}}',
+        "digits": '{"name": "digits", "extra": {"difficulty": 1' + "0" * 5000 + "}}",
+        "deep": "[" * 100000,
+        "far": '{"name": "far", "extra": {"difficulty": 2e9}}',  # finite, but beyond what the report reads
+    }
+    for name, text in texts.items():
+        (folder / f"{name}.json").write_text(text)
+    specs = build_specs(SweepConfig(worlds_dir=str(folder)))
+    by_world = {s.world_id: s for s in specs}
+    assert {w: (s.family, s.difficulty, s.retract) for w, s in by_world.items()} == {
+        "w00": ("pipe-rack", 0.0, False), "nan": ("truss", None, False), "inf": (None, None, False),
+        "long": (None, None, False), "family": (None, 0.5, False), "digits": (None, None, False),
+        "deep": (None, None, False), "far": (None, None, False)}
+    from navstack.report import MAX_VALUE
+
+    assert sweep.MAX_DIFFICULTY == MAX_VALUE
+    out = tmp_path / "out"
+    summary = run_sweep(specs, out, jobs=2, runner=fake_runner, progress=False)
+    assert summary.complete and summary.errors == 2
+    recs = {r["world_id"]: r for r in lines_of(out / "results.jsonl")}
+    assert recs["deep"]["error"] == f"{folder / 'deep.json'}: invalid JSON: nested too deeply"
+    assert recs["digits"]["error"].startswith(f"{folder / 'digits.json'}: invalid JSON: Exceeds the limit")
+    assert recs["nan"]["difficulty"] is None and recs["nan"]["reason"] in ("reached", "collision")
+    assert [t["difficulty"] for t in _strict_json(out / "sweep.json")["trials"]] == [s.difficulty for s in specs]
+    assert run_sweep(build_specs(SweepConfig(worlds_dir=str(folder))), out, jobs=1, runner=fake_runner,
+                     progress=False).ran == 0  # and it resumes
+
+
+def test_a_world_file_from_the_real_runner_names_its_non_finite_difficulty(tmp_path):
+    """With the real runner the world check turns the bad difficulty into an error line naming the field."""
+    folder = tmp_path / "in"
+    folder.mkdir()
+    (folder / "nan.json").write_text('{"format": "navstack-world/1", "name": "nan", "robot": {}, "obstacles": [], '
+                                     '"goals": [{"position": [1, 0, 1]}], "extra": {"difficulty": NaN}}')
+    summary = run_sweep(build_specs(SweepConfig(worlds_dir=str(folder))), tmp_path / "out", jobs=1,
+                        progress=False)
+    (rec,) = lines_of(tmp_path / "out" / "results.jsonl")
+    assert summary.errors == 1 and rec["difficulty"] is None
+    assert "extra.difficulty: expected a finite number, got NaN" in rec["error"]
+
+
+def test_read_results_deeply_nested_and_non_finite_lines(tmp_path):
+    p = tmp_path / "results.jsonl"
+    good = '{"trial_id": "a", "success": true}\n'
+    p.write_text(good + "[" * 100000 + "\n" + good)
+    with pytest.raises(SweepError, match=r"results\.jsonl, line 2: malformed result line \(nested too deeply\)"):
+        read_results(p)
+    p.write_text(good + "[" * 100000)  # unterminated last line: a truncated write, like any other
+    rf = read_results(p)
+    assert rf.truncated_tail and rf.valid_bytes == len(good) and len(rf.records) == 1
+    p.write_text(good + '{"trial_id": "b", "sim_time": NaN}')  # the writer never writes NaN: not a cut write
+    with pytest.raises(SweepError, match=r"line 2: malformed result line \(NaN is not valid JSON\)"):
+        read_results(p)
+
+
+def test_resume_refuses_a_deeply_nested_line(tmp_path, capsys):
+    folder = write_worlds(tmp_path / "in", 2)
+    out = tmp_path / "out"
+    argv = ["--worlds", str(folder), "--out", str(out), "--jobs", "1", "--no-progress"]
+    specs = build_specs(SweepConfig(worlds_dir=str(folder)))
+    run_sweep(specs, out, jobs=1, runner=fake_runner, progress=False, config=sweep.config_from_args(_parse(argv)))
+    first = (out / "results.jsonl").read_text().splitlines(keepends=True)[0]
+    (out / "results.jsonl").write_text(first + "[" * 100000 + "\n")
+    assert sweep.run_from_args(_parse(argv), []) == 2
+    assert f"{out / 'results.jsonl'}, line 2: malformed result line (nested too deeply)" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("value", ["nan", "-5", "inf", "-inf", "1e400", "soon"])
+def test_trial_timeout_must_be_finite_and_not_negative(value, capsys):
+    with pytest.raises(SystemExit) as info:
+        _parse(["--worlds", "x", "--out", "y", f"--trial-timeout={value}"])
+    assert info.value.code == 2
+    assert (f"argument --trial-timeout: expected a number of seconds >= 0 (0 = no limit), got '{value}'"
+            in capsys.readouterr().err)
+
+
+def test_out_in_the_worlds_folder_is_refused_and_a_subfolder_is_fine(tmp_path, capsys):
+    """--out equal to --worlds once wrote sweep.json among the worlds: the rerun listed it as a world and
+    refused to resume ('holds a different sweep')."""
+    folder = write_worlds(tmp_path / "in", 2)
+    argv = ["--worlds", str(folder), "--out", str(folder) + "/", "--no-progress"]
+    assert sweep.run_from_args(_parse(argv), []) == 2
+    assert f"--out: {folder} is the --worlds folder" in capsys.readouterr().err
+    assert sorted(p.name for p in folder.iterdir()) == ["w00.json", "w01.json"]
+    specs = build_specs(SweepConfig(worlds_dir=str(folder)))
+    for _ in range(2):  # a subfolder is not listed: the sweep resumes
+        run_sweep(specs, folder / "out", jobs=1, runner=fake_runner, progress=False)
+    assert len(lines_of(folder / "out" / "results.jsonl")) == 2
+
+
+def test_a_dangling_symlink_is_an_error_line(tmp_path):
+    folder = write_worlds(tmp_path / "in", 2)
+    (folder / "gone.json").symlink_to(tmp_path / "nowhere.json")
+    (folder / "loop.json").symlink_to("loop.json")
+    (folder / "dir.json").mkdir()  # a folder is not a world file: not listed
+    specs = build_specs(SweepConfig(worlds_dir=str(folder)))
+    assert sorted(s.world_id for s in specs) == ["gone", "loop", "w00", "w01"]
+    summary = run_sweep(specs, tmp_path / "out", jobs=1, runner=fake_runner, progress=False)
+    recs = {r["world_id"]: r for r in lines_of(tmp_path / "out" / "results.jsonl")}
+    assert summary.errors == 2
+    assert recs["gone"]["error"] == (f"{folder / 'gone.json'}: cannot read world file: a symbolic link to "
+                                     f"{tmp_path / 'nowhere.json'}, which leads to no file (a missing target or "
+                                     "a loop of links)")
+    assert recs["loop"]["reason"] == "error" and "loop.json" in recs["loop"]["error"]
