@@ -702,6 +702,23 @@ def _job(spec: TrialSpec, run: _Run) -> TrialJob | str:
                     generator=run.generator)
 
 
+def _wall_limit(job: TrialJob, trial_timeout: float | None) -> float | None:
+    """The trial's wall-clock limit [s]: ``trial_timeout``, or its world file's ``time_limit`` if that is
+    longer (at most :data:`navstack.world.MAX_TIME_LIMIT`), so a valid world is never cut off before its
+    simulated time could pass in real time (a 3600 s world takes minutes; the default limit is 600 s)."""
+    if trial_timeout is None or job.world_text is None:
+        return trial_timeout
+    from navstack.world import MAX_TIME_LIMIT
+
+    try:
+        limit = json.loads(job.world_text.lstrip("\ufeff")).get("time_limit")
+    except (ValueError, RecursionError, AttributeError):
+        return trial_timeout
+    if isinstance(limit, bool) or not isinstance(limit, int | float) or not limit <= MAX_TIME_LIMIT:
+        return trial_timeout
+    return max(trial_timeout, float(limit))
+
+
 @dataclass
 class _Run:
     """One invocation of :func:`run_sweep`: its options, and the driver loop that is the only writer of ``out``."""
@@ -763,7 +780,7 @@ class _Run:
                     if isinstance(job, str):
                         self._record(writer, spec, error_reply(job, 0.0), executor.backend)
                     else:
-                        pending[executor.submit(job, self.trial_timeout)] = spec
+                        pending[executor.submit(job, _wall_limit(job, self.trial_timeout))] = spec
                 if pending:
                     finished, _ = cf.wait(pending, timeout=1.0, return_when=cf.FIRST_COMPLETED)
                     executor.check()
@@ -905,7 +922,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="Ray cluster to use with --backend ray (default: $RAY_ADDRESS, else a new Ray "
                              "instance on this machine)")
     parser.add_argument("--trial-timeout", type=_timeout_arg, default=DEFAULT_TRIAL_TIMEOUT, metavar="SEC",
-                        help=f"wall-clock limit per trial, s (default {DEFAULT_TRIAL_TIMEOUT:g}; 0 = none)")
+                        help=f"wall-clock limit per trial, s (default {DEFAULT_TRIAL_TIMEOUT:g}; 0 = none); "
+                             "at least the world file's time_limit")
     parser.add_argument("--keep-trajectories", action="store_true",
                         help="write each trial's result.json and trajectory.npz under DIR/trials/")
     parser.add_argument("--animate-failures", action="store_true",

@@ -870,3 +870,23 @@ def test_a_dangling_symlink_is_an_error_line(tmp_path):
                                      f"{tmp_path / 'nowhere.json'}, which leads to no file (a missing target or "
                                      "a loop of links)")
     assert recs["loop"]["reason"] == "error" and "loop.json" in recs["loop"]["error"]
+
+
+def test_a_trial_is_given_at_least_its_worlds_own_time_limit_of_wall_clock(tmp_path):
+    """The default limit is 600 s of wall clock, but a valid world may simulate 3600 s (minutes of wall clock):
+    it would have been recorded as an error.  Its limit is now the longer of the two."""
+    from navstack.executors import TrialJob
+    from navstack.sweep import _wall_limit
+
+    spec = build_specs(SweepConfig(worlds_dir=str(write_worlds(tmp_path / "in", 1))))[0]
+
+    def job(time_limit) -> TrialJob:
+        return TrialJob(spec=spec, world_text=json.dumps({"name": "w", "time_limit": time_limit}), runner=fake_runner)
+
+    assert _wall_limit(job(3600.0), 600.0) == 3600.0
+    assert _wall_limit(job(30), 600.0) == 600.0
+    assert _wall_limit(job(3600.0), None) is None  # no limit stays no limit
+    for bad in ("x", True, 1e300, None):  # the trial's own check refuses these; the sweep's limit stays
+        assert _wall_limit(job(bad), 600.0) == 600.0
+    assert _wall_limit(TrialJob(spec=spec, world_text=None, runner=fake_runner), 600.0) == 600.0  # generated
+    assert _wall_limit(TrialJob(spec=spec, world_text="[1, 2]", runner=fake_runner), 600.0) == 600.0
