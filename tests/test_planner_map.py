@@ -713,16 +713,40 @@ def test_motion_is_sensed_when_the_contradictions_in_the_window_reach_the_thresh
     two = ([p - 0.2 * X, p + 0.05 * Y - 0.2 * X], [X, X], [0.03] * 2, [0.4] * 2, [False] * 2, [True] * 2)
     smap.update(*two)
     assert not smap.forgetting and smap.contradicted == 2
-    smap.update(*two)  # 4 in the last 2 readings
-    assert smap.forgetting and smap.motion_sensed_at == 2 and smap.n_points == 2
-    smap.update(*two)  # now the passes lower the evidence: 2 -> 1
-    smap.update(*two)
-    assert smap.n_points == 0 and smap.contradicted == 0
+    smap.update(*two)  # 4 in the last 2 readings; the 2 passes each took what forgetting would have
+    assert smap.forgetting and smap.motion_sensed_at == 2 and smap.n_points == 0
     off = _map(dataclasses.replace(cfg, detect_motion=False))
     off.add_points([p, p])
     for _ in range(5):
         off.update(*through)
     assert off.contradicted == 0 and not off.forgetting and off.n_points == 1
+
+
+def test_once_motion_is_sensed_the_passes_before_count_as_if_the_map_had_forgotten_all_along():
+    """Each point keeps the evidence forgetting would have left it (one less per clean pass, put back by a
+    hit): when motion is sensed, that becomes its evidence and the points it would have removed go at once
+    (in the tests' door world the trials then end as with forgetting from the start, step for step)."""
+    cfg = MapConfig(shadow_depths=(), motion_contradictions=1, motion_window=1, max_evidence=3)
+    a, b, c = (np.array([0.305, y, 0.195]) for y in (0.105, 0.205, 0.305))
+
+    def through(*points):
+        n = len(points)
+        return ([p - 0.2 * X for p in points], [X] * n, [0.03] * n, [0.4] * n, [False] * n, [True] * n)
+
+    smap = _map(cfg)
+    smap.add_points([a, a, b, c])  # a: evidence 3 (established), b and c: 2 (initial_evidence)
+    smap.update(*through(b))
+    smap.update(*through(b, c))  # passes through weak points: no contradiction, nothing forgotten yet
+    assert not smap.forgetting and smap.n_points == 3
+    smap.add_points([c])  # a hit puts one back: c would be at 2 again
+    smap.update(*through(a))  # a contradiction: motion
+    assert smap.forgetting and smap.motion_sensed_at == 3  # the third reading
+    assert smap.n_points == 2  # b would have been forgotten at its second pass
+    smap.update(*through(a))  # a: 3 - 1 (the sensing pass) - 1
+    smap.update(*through(c))  # c: 2 - 1
+    assert smap.n_points == 2
+    smap.update(*through(a, c))
+    assert smap.n_points == 0
 
 
 def test_forget_moved_forgets_from_the_start():

@@ -49,19 +49,21 @@ DOOR_CONFIGS = {
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", list(DOOR_CONFIGS))
-def test_a_door_that_clears_is_taken_once_the_rays_see_through_it(name):
-    """With forgetting the door is taken; without it the sphere's surface stays in the door in the map."""
-    if name == "sensed":
-        pytest.xfail("measured: motion is sensed (readings 282-633, seeds 0-2) but the trial fails (timeout, "
-                     "timeout, stalled): the points hit while the sphere moved, before forgetting began, stay")
+def test_a_door_that_clears_is_taken_once_the_rays_see_through_it():
+    """With forgetting the door is taken; without it the sphere's surface stays in the door in the map.  A map
+    that senses the motion itself, and then counts the passes before as forgetting would have, ends the trial
+    exactly as one told from the start that obstacles move (measured on seeds 0-4: the same results)."""
     base = TrialConfig()
-    cfg = dataclasses.replace(base, field_planner=dataclasses.replace(base.field_planner, map=DOOR_CONFIGS[name]))
-    r = run_trial(world_from_dict(_door_world()), planner="field", config=cfg)
-    print(f"\n{name}: {r.reason}, goals {r.goals_reached}, {r.sim_time:.1f} s, clearance "
-          f"{r.metrics['min_clearance'] * 1e3:.1f} mm")
-    assert r.metrics["contacts"] == 0
-    assert r.success == (name != "never")
+    results = {}
+    for name, map_config in DOOR_CONFIGS.items():
+        cfg = dataclasses.replace(base, field_planner=dataclasses.replace(base.field_planner, map=map_config))
+        r = run_trial(world_from_dict(_door_world()), planner="field", config=cfg)
+        print(f"\n{name}: {r.reason}, goals {r.goals_reached}, {r.sim_time:.1f} s, clearance "
+              f"{r.metrics['min_clearance'] * 1e3:.1f} mm")
+        assert r.metrics["contacts"] == 0
+        assert r.success == (name != "never")
+        results[name] = dataclasses.replace(r, wall_time=0.0)
+    assert results["sensed"] == results["forget_moved"]
 
 
 def test_forgetting_needs_repeated_passes_and_the_planner_is_not_told_whether_obstacles_move():
