@@ -37,8 +37,8 @@ per clean pass, one more per hit, put back at ``initial_evidence`` by a hit once
 is sensed that becomes its evidence, and the points forgetting would have removed go at once.  Without
 it the points hit while the obstacle moved, before motion was sensed, stayed: in the tests' door world
 the trial failed on seeds 0-2 (3 of 5 reached with forgetting from the start, 0 of 5 without the latent
-evidence); with it all five end exactly as with forgetting from the start (the same steps and clearance).  No one tells the map whether the world holds moving obstacles (spec 2b).  Static worlds do
-contradict established points, mostly where rays graze a surface lengthwise (the noisy points lie within
+evidence); with it all five end exactly as with forgetting from the start (the same steps and clearance).
+No one tells the map whether the world holds moving obstacles (spec 2b).  Static worlds do contradict established points, mostly where rays graze a surface lengthwise (the noisy points lie within
 ``clear_radius`` of a ray running just outside it): measured over 59 static trials (48 generated, 11
 example worlds), at most 21 in one reading and 59 in 30 readings; a sphere that leaves a door (the tests'
 door world) gives up to 280 in 30 readings once the rays look through the door again.  The threshold, 150
