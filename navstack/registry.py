@@ -81,8 +81,7 @@ class PlannerContext:
     control period [s]; ``config`` the trial's :class:`navstack.trial.TrialConfig` (planner parameters).
     The robot's own shape at t = 0: ``arm`` (k, 3) points along the axes of the arm's capsules (frames
     1..9), ``arm_radius`` [m] their radius, ``flange`` (3,) the flange J6 (frame 9), where the serpentine
-    begins.  ``dynamic``: the world declares moving obstacles (whether anything moves, never what or
-    where), so a sensing planner may forget surfaces its rays see through.
+    begins.  Nothing says whether obstacles move: a planner senses that (spec 2b).
     """
 
     start: NDArray[np.float64]
@@ -94,7 +93,6 @@ class PlannerContext:
     arm: NDArray[np.float64] | None = None
     arm_radius: float = 0.06
     flange: NDArray[np.float64] | None = None
-    dynamic: bool = False
 
 
 PLANNERS: dict[str, PlannerEntry] = {}

@@ -68,10 +68,6 @@ class TrialConfig:
     """The tip proximity sensor (``--planner field``)."""
     field_planner: FieldPlannerConfig = field(default_factory=FieldPlannerConfig)
     """The sensing planner's parameters (``--planner field``)."""
-    forget_when_moving: bool = True
-    """In a world that declares moving obstacles, the sensing planner's map forgets the surfaces its rays see
-    through (``MapConfig.forget_moved``); in a static world it only grows (measured: forgetting there cost
-    a hard sparse truss its goal)."""
     reactive_planner: PlannerConfig = field(default_factory=PlannerConfig)
     """The previous reactive planner's parameters (``--planner reactive``)."""
     slither_mode: str = "projected"
@@ -281,10 +277,7 @@ def make_field_planner(ctx):
     from navstack.planner.search import ArmShape
 
     arm = None if ctx.arm is None else ArmShape(ctx.arm, ctx.flange, ctx.arm_radius)
-    fp = ctx.config.field_planner
-    if ctx.dynamic and ctx.config.forget_when_moving and not fp.map.forget_moved:
-        fp = replace(fp, map=replace(fp.map, forget_moved=True))
-    return FieldPlanner(ctx.start, ctx.heading, ctx.goals, ctx.tolerances, fp, arm=arm)
+    return FieldPlanner(ctx.start, ctx.heading, ctx.goals, ctx.tolerances, ctx.config.field_planner, arm=arm)
 
 
 def make_reactive_planner(ctx):
@@ -431,8 +424,7 @@ class _Simulation:
         arm_frames = np.array([self._to_world(F[i, :3, 3]) for i in range(1, 10)])
         context = PlannerContext(start=tip0, heading=heading0, goals=self.goals, tolerances=self.tolerances,
                                  dt=self.dt, config=cfg, arm=segment_samples(arm_frames[:-1], arm_frames[1:], 0.05),
-                                 arm_radius=world.robot.arm_radius, flange=arm_frames[-1],
-                                 dynamic=bool(self.scene.movers))
+                                 arm_radius=world.robot.arm_radius, flange=arm_frames[-1])
         self.planner = load(entry.factory)(context)
         self.sensor = None
         self.estimator = None

@@ -1,5 +1,5 @@
 """The planner's sensed map (navstack.planner.map): voxel merging, exact distances, ray fusion, shadow points,
-clearing (``forget_moved``).
+clearing (``forget_moved``), sensing motion (``detect_motion``).
 
 References are independent of the kernels: brute-force distances over the stored points, cell sets
 from fine sampling of each ray, and the map's documented rules written out in the tests.
@@ -7,6 +7,7 @@ from fine sampling of each ray, and the map's documented rules written out in th
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -635,7 +636,7 @@ def test_add_points_without_update_accumulates_new_points():
     ("voxel", 0.0), ("voxel", -0.01), ("bucket", np.nan), ("free_cell", np.inf), ("margin", True),
     ("hit_backoff", "3 cm"), ("clear_radius", 0.0), ("clear_backoff", -1.0), ("average", 0), ("average", 2.0),
     ("average", True), ("shadow_depths", [0.01]), ("shadow_depths", (0.01, -0.02)), ("shadow_depths", (True,)),
-    ("forget_moved", 1),
+    ("forget_moved", 1), ("detect_motion", 0), ("motion_contradictions", 0), ("motion_window", 1.5),
 ])
 def test_map_config_rejects_bad_values_naming_the_field(name, value):
     with pytest.raises(ValueError, match=name):
@@ -669,3 +670,133 @@ def test_update_rejects_arrays_that_disagree_naming_them(bad):
     with pytest.raises(ValueError, match="must agree|must be \\(R, 3\\)"):
         smap.update(**rays)
     assert smap.n_points == 0 and smap.revision == 0
+
+
+# ---------------------------------------------------------------------------- sensing motion
+Y = np.array([0.0, 1.0, 0.0])
+DETECT = MapConfig(shadow_depths=())  # the default: not forgetting until motion is sensed
+
+
+def test_a_clean_pass_contradicts_an_established_point_and_not_a_weak_one():
+    """Before motion is sensed, a ray through a point changes no evidence; it counts one contradiction for a
+    point at ``max_evidence`` (once per reading, however many rays) and none for a point hit fewer times."""
+    smap = _map(DETECT)
+    strong, weak = np.array([0.305, 0.205, 0.195]), np.array([0.305, 0.105, 0.195])
+    for _ in range(DETECT.max_evidence):  # initial_evidence, then one more per hit, up to max_evidence
+        smap.update([strong - 0.2 * X], [X], [0.03], [0.2], [True], [True])
+    smap.add_points([weak])
+    assert not smap.forgetting and smap.contradicted == 0
+    smap.update([weak - 0.2 * X], [X], [0.03], [0.4], [False], [True])
+    assert smap.contradicted == 0
+    smap.update([strong - 0.2 * X] * 2, [X, X], [0.03] * 2, [0.4] * 2, [False] * 2, [True] * 2)
+    assert smap.contradicted == 1
+    for _ in range(20):  # the evidence stays: nothing is forgotten
+        smap.update([strong - 0.2 * X, weak - 0.2 * X], [X, X], [0.03] * 2, [0.4] * 2, [False] * 2, [True] * 2)
+    assert smap.n_points == 2 and not smap.forgetting and smap.motion_sensed_at is None
+
+
+def test_motion_is_sensed_when_the_contradictions_in_the_window_reach_the_threshold():
+    """``motion_contradictions`` within ``motion_window`` readings turn forgetting on from the next reading;
+    fewer, spread wider than the window, do not; ``detect_motion=False`` never counts."""
+    cfg = MapConfig(shadow_depths=(), motion_contradictions=3, motion_window=2, max_evidence=2)
+    p = np.array([0.305, 0.205, 0.195])
+    through = ([p - 0.2 * X], [X], [0.03], [0.4], [False], [True])
+    beside = ([p - 0.2 * X + [0, 0.1, 0]], [X], [0.03], [0.4], [False], [True])
+    smap = _map(cfg)
+    smap.add_points([p, p])  # evidence 2 = max_evidence: established
+    for _ in range(5):  # one contradiction every other reading: at most 1 in any 2 readings
+        smap.update(*through)
+        smap.update(*beside)
+    assert not smap.forgetting
+    smap = _map(cfg)
+    smap.add_points([p, p, p + 0.05 * Y, p + 0.05 * Y])
+    two = ([p - 0.2 * X, p + 0.05 * Y - 0.2 * X], [X, X], [0.03] * 2, [0.4] * 2, [False] * 2, [True] * 2)
+    smap.update(*two)
+    assert not smap.forgetting and smap.contradicted == 2
+    smap.update(*two)  # 4 in the last 2 readings; the 2 passes each took what forgetting would have
+    assert smap.forgetting and smap.motion_sensed_at == 2 and smap.n_points == 0
+    off = _map(dataclasses.replace(cfg, detect_motion=False))
+    off.add_points([p, p])
+    for _ in range(5):
+        off.update(*through)
+    assert off.contradicted == 0 and not off.forgetting and off.n_points == 1
+
+
+def test_once_motion_is_sensed_the_passes_before_count_as_if_the_map_had_forgotten_all_along():
+    """Each point keeps the evidence forgetting would have left it (one less per clean pass, put back by a
+    hit): when motion is sensed, that becomes its evidence and the points it would have removed go at once
+    (in the tests' door world the trials then end as with forgetting from the start, step for step)."""
+    cfg = MapConfig(shadow_depths=(), motion_contradictions=1, motion_window=1, max_evidence=3)
+    a, b, c = (np.array([0.305, y, 0.195]) for y in (0.105, 0.205, 0.305))
+
+    def through(*points):
+        n = len(points)
+        return ([p - 0.2 * X for p in points], [X] * n, [0.03] * n, [0.4] * n, [False] * n, [True] * n)
+
+    smap = _map(cfg)
+    smap.add_points([a, a, b, c])  # a: evidence 3 (established), b and c: 2 (initial_evidence)
+    smap.update(*through(b))
+    smap.update(*through(b, c))  # passes through weak points: no contradiction, nothing forgotten yet
+    assert not smap.forgetting and smap.n_points == 3
+    smap.add_points([c])  # a hit puts one back: c would be at 2 again
+    smap.update(*through(a))  # a contradiction: motion
+    assert smap.forgetting and smap.motion_sensed_at == 3  # the third reading
+    assert smap.n_points == 2  # b would have been forgotten at its second pass
+    smap.update(*through(a))  # a: 3 - 1 (the sensing pass) - 1
+    smap.update(*through(c))  # c: 2 - 1
+    assert smap.n_points == 2
+    smap.update(*through(a, c))
+    assert smap.n_points == 0
+
+
+def test_forget_moved_forgets_from_the_start():
+    smap = _map(MapConfig(shadow_depths=(), forget_moved=True))
+    assert smap.forgetting and smap.motion_sensed_at is None
+
+
+def _recorded_static_readings():
+    """The 200 recorded readings of ``worlds/truss_clutter.json`` (static; seed 0, control steps 150-349) as
+    the field planner fuses them: the estimator's ranges, measured rays as hits, rays from 3 cm."""
+    from pathlib import Path
+
+    data = np.load(Path(__file__).parent / "data" / "range_readings.npz")
+    max_range = float(data["max_range"])
+    for k in range(len(data["ranges"])):
+        measured = data["out_measured"][k]
+        informative = measured | (data["valid"][k] & ~data["out_tracking"][k])
+        n = len(measured)
+        yield (np.tile(data["origins"][k], (n, 1)), data["directions"][k], np.full(n, 0.03),
+               np.where(measured, data["out_ranges"][k], max_range), measured, informative)
+
+
+def test_a_recorded_static_trial_never_senses_motion():
+    readings = list(_recorded_static_readings())
+    pts = np.concatenate([o[m] + rg[m, None] * d[m] for o, d, _, rg, m, _ in readings])  # the hits
+    smap = SensedMap(pts.min(axis=0) - 0.5, pts.max(axis=0) + 0.5)  # the default config
+    window = []
+    for r in readings:
+        smap.update(*r)
+        window = (window + [smap.contradicted])[-smap.config.motion_window:]
+    assert not smap.forgetting and smap.motion_sensed_at is None
+    assert sum(window) < smap.config.motion_contradictions / 2
+
+
+def test_a_surface_that_moves_away_is_sensed_and_then_forgotten():
+    """A wall seen head-on by a fan of rays for 2 s moves 0.15 m further: the rays now pass through its old
+    points.  Motion is sensed within the window, and the old wall is forgotten while the new one stays."""
+    g = np.linspace(-0.06, 0.06, 9)
+    dirs = np.array([[1.0, a, b] for a in g for b in g])
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    o = np.array([0.1, 0.2, 0.2])
+    n = len(dirs)
+    rng = np.random.default_rng(1)
+    smap = _map(MapConfig(shadow_depths=()))
+    for k in range(120):
+        wall = 0.25 if k < 60 else 0.40  # x of the wall; it moves at reading 60
+        ranges = (wall - o[0]) / dirs[:, 0] + rng.normal(0.0, 0.002, n)
+        smap.update(np.tile(o, (n, 1)), dirs, np.full(n, 0.03), ranges, np.ones(n, bool), np.ones(n, bool))
+        if k == 59:
+            assert not smap.forgetting
+    assert smap.motion_sensed_at is not None and 61 <= smap.motion_sensed_at <= 61 + smap.config.motion_window
+    x = smap.surface_points[:, 0]
+    assert len(x) >= 20 and np.all(x > 0.35)  # the old wall forgotten, the new one kept
