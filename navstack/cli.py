@@ -232,6 +232,13 @@ def _non_negative_int(text: str) -> int:
     return value
 
 
+def nonempty_path(text: str) -> str:
+    """An ``--out`` / ``--worlds`` path: an empty one would silently mean the current folder."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError(f"expected a path, got {text!r} (for the current folder, write '.')")
+    return text
+
+
 def _positive_mb(text: str) -> float:
     try:
         value = float(text)
@@ -290,7 +297,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     d = sub.add_parser("demo", help="the paper's truss demo, headless (writes result.json, trajectory.npz, scene.png)")
-    d.add_argument("--out", default="out/demo", help="output folder (default: out/demo)")
+    d.add_argument("--out", default="out/demo", type=nonempty_path, help="output folder (default: out/demo)")
     d.add_argument("--planner", choices=PLANNERS, default="field")
     d.add_argument(
         "--controller",
@@ -304,7 +311,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     r = sub.add_parser("run", help="run one closed-loop trial headless")
     r.add_argument("world", help="a navstack-world/1 JSON file")
-    r.add_argument("--out", required=True, help="output folder for result.json and trajectory.npz")
+    r.add_argument("--out", required=True, type=nonempty_path,
+                   help="output folder for result.json and trajectory.npz")
     r.add_argument("--controller", choices=CONTROLLERS, default="slither")
     r.add_argument("--planner", choices=PLANNERS, default="field")
     r.add_argument("--seed", type=_non_negative_int, default=0, help="seed of the sensor noise (default 0)")

@@ -895,12 +895,13 @@ def _timeout_arg(text: str) -> float:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the ``navstack trials`` options to ``parser`` (see :func:`run_from_args`)."""
+    from navstack.cli import nonempty_path
     from navstack.registry import CONTROLLERS, FAMILIES, PLANNERS
 
     src = parser.add_mutually_exclusive_group(required=True)
     src.add_argument("--generate", nargs="+", metavar="FAMILY",
                      help="world families to generate (listed below): " + ", ".join(FAMILIES))
-    src.add_argument("--worlds", metavar="DIR", help="run every *.json world file in DIR")
+    src.add_argument("--worlds", metavar="DIR", type=nonempty_path, help="run every *.json world file in DIR")
     parser.add_argument("--count", type=int, default=1,
                         help="worlds per family and difficulty (--generate) "
                              "or repetitions per file (--worlds)")
@@ -930,7 +931,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="keep the failed trials' folders under DIR/trials/ with an animation.mp4 each "
                              "(the report links them)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
-    parser.add_argument("--out", required=True, metavar="DIR", help="sweep directory (created or resumed)")
+    parser.add_argument("--out", required=True, metavar="DIR", type=nonempty_path,
+                        help="sweep directory (created or resumed)")
 
 
 def config_from_args(args: argparse.Namespace) -> SweepConfig:

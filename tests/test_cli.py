@@ -81,3 +81,14 @@ def test_a_reader_that_closes_the_pipe_ends_the_command_quietly(tmp_path):
     err = proc.stderr.read().decode()
     assert proc.wait(timeout=120) == 141, err
     assert "error" not in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("argv", [["run", "worlds/paper_truss.json", "--out", ""], ["demo", "--out", " "],
+                                  ["trials", "--generate", "truss", "--out", ""],
+                                  ["trials", "--worlds", "", "--out", "x"]])
+def test_an_empty_output_or_worlds_path_is_an_argument_error(argv, capsys):
+    """An empty --out wrote the run's files into the current folder without a word."""
+    with pytest.raises(SystemExit) as ei:
+        main(argv)
+    assert ei.value.code == 2
+    assert "expected a path, got" in capsys.readouterr().err
