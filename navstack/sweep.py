@@ -527,6 +527,7 @@ def _prepare_dir(out_dir: Path, specs: Sequence[TrialSpec], config: dict[str, An
     out_dir.mkdir(parents=True, exist_ok=True)
     sweep_path = out_dir / SWEEP_NAME
     wanted = [s.to_dict() for s in specs]
+    hashes = _world_hashes(specs)
     if sweep_path.exists():
         try:
             stored = json.loads(sweep_path.read_text(encoding="utf-8"))
@@ -544,13 +545,39 @@ def _prepare_dir(out_dir: Path, specs: Sequence[TrialSpec], config: dict[str, An
             raise SweepError(
                 f"{out_dir} holds a different sweep ({len(have)} stored trials, {len(wanted)} requested; "
                 f"first difference at {what}). Resume it with its original arguments or choose a new --out.")
+        _check_world_hashes(sweep_path, stored.get("world_files"), hashes)
         return
     if (out_dir / RESULTS_NAME).exists():
         raise SweepError(f"{out_dir / RESULTS_NAME} exists but {sweep_path} does not: not a navstack sweep "
                          f"directory (or its sweep.json was removed); choose a new --out")
     doc = {"format": SWEEP_FORMAT, "config": config, "command": command, "n_trials": len(wanted),
-           "trials": wanted}
+           "trials": wanted, "world_files": hashes}
     _atomic_write_bytes(sweep_path, (json.dumps(doc, indent=1) + "\n").encode("utf-8"))
+
+
+def _world_hashes(specs: Sequence[TrialSpec]) -> dict[str, str | None]:
+    """SHA-256 of each world file the trials read (``--worlds``; None: unreadable), by path."""
+    out: dict[str, str | None] = {}
+    for spec in specs:
+        if not spec.generated and spec.world_file not in out:
+            try:
+                out[spec.world_file] = hashlib.sha256(Path(spec.world_file).read_bytes()).hexdigest()
+            except OSError:
+                out[spec.world_file] = None
+    return out
+
+
+def _check_world_hashes(sweep_path: Path, stored: Any, now: dict[str, str | None]) -> None:
+    """Refuse to resume a sweep whose world files changed since it began: its finished trials ran the earlier
+    text, the rest would run the new one, and the results would mix them unseen.  (Sweeps written before
+    the hashes were stored have none: nothing to compare.)"""
+    if not isinstance(stored, dict):
+        return
+    changed = [f for f, h in now.items() if f in stored and stored[f] != h]
+    if changed:
+        more = f" (and {len(changed) - 1} more)" if len(changed) > 1 else ""
+        raise SweepError(f"{changed[0]}{more} changed since the sweep in {sweep_path.parent} began: its finished "
+                         f"trials ran the earlier file. Put the earlier file back to resume, or choose a new --out")
 
 
 def _load_done(results: Path, ids: set[str]) -> tuple[dict[str, dict[str, Any]], bool]:

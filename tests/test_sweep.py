@@ -890,3 +890,21 @@ def test_a_trial_is_given_at_least_its_worlds_own_time_limit_of_wall_clock(tmp_p
         assert _wall_limit(job(bad), 600.0) == 600.0
     assert _wall_limit(TrialJob(spec=spec, world_text=None, runner=fake_runner), 600.0) == 600.0  # generated
     assert _wall_limit(TrialJob(spec=spec, world_text="[1, 2]", runner=fake_runner), 600.0) == 600.0
+
+
+def test_a_sweep_whose_world_file_changed_is_not_resumed(tmp_path):
+    """Trials of the earlier file are finished; resuming would run the rest on the new text and mix the two in
+    one results.jsonl unseen.  The stored SHA-256 catches it, naming the file; put back, it resumes."""
+    folder = write_worlds(tmp_path / "in", 2)
+    specs = build_specs(SweepConfig(worlds_dir=str(folder), count=2))
+    out = tmp_path / "out"
+    run_sweep(specs[:2], out, jobs=1, runner=fake_runner, progress=False)  # a first part, as if interrupted
+    stored = json.loads((out / "sweep.json").read_text())["world_files"]
+    assert sorted(stored) == sorted({s.world_file for s in specs[:2]}) and all(len(h) == 64 for h in stored.values())
+    edited = Path(specs[0].world_file)
+    original = edited.read_text()
+    edited.write_text(original.replace('"w00"', '"w00-edited"'))
+    with pytest.raises(SweepError, match=rf"{edited}.* changed since the sweep in .* began"):
+        run_sweep(specs[:2], out, jobs=1, runner=fake_runner, progress=False)
+    edited.write_text(original)
+    assert run_sweep(specs[:2], out, jobs=1, runner=fake_runner, progress=False).skipped == 2
