@@ -101,6 +101,9 @@ SWEEP_NAME = "sweep.json"
 WORLDS_DIR = "worlds"
 LOG_NAME = "workers.log"
 LOCK_NAME = "sweep.lock"
+MAX_TRIALS = 1_000_000
+"""The most trials one sweep may list (its ``sweep.json`` then holds about 300 MB; ``--count 100000000`` ran
+out of memory before its first trial): split larger studies into several sweeps."""
 MAX_DIFFICULTY = 1e9
 """A world file's ``extra.difficulty`` beyond +-this reads as absent (``navstack report`` refuses larger numbers:
 :data:`navstack.report.MAX_VALUE`)."""
@@ -300,6 +303,7 @@ def build_specs(config: SweepConfig) -> list[TrialSpec]:
         if config.retract and not _generator_supports_retract():
             raise SweepError("--retract: this navstack's world generator cannot make retraction worlds yet "
                              "(navstack.generate.generate_world has no 'retract' argument)")
+        _check_total(config, len(config.families) * len(config.difficulties))
         for index in range(config.count):
             for fam in config.families:
                 world_seed = derive_seed("world", config.seed, fam, index)
@@ -324,6 +328,7 @@ def build_specs(config: SweepConfig) -> list[TrialSpec]:
         files = sorted(p for p in folder.glob("*.json") if p.is_file() or (p.is_symlink() and not p.exists()))
         if not files:
             raise SweepError(f"--worlds: no *.json world files in {folder}")
+        _check_total(config, len(files))
         infos = [(p, *_world_file_info(p)) for p in files]
         for rep in range(config.count):
             for path, fam, diff, retract in infos:
@@ -337,6 +342,14 @@ def build_specs(config: SweepConfig) -> list[TrialSpec]:
                             index=rep, family=fam, difficulty=diff, world_seed=None, retract=retract))
     _check_unique(specs)
     return specs
+
+
+def _check_total(config: SweepConfig, worlds_per_count: int) -> None:
+    """Refuse a sweep of more than :data:`MAX_TRIALS` trials before listing them."""
+    total = config.count * worlds_per_count * len(config.planners) * len(config.controllers)
+    if total > MAX_TRIALS:
+        raise SweepError(f"--count: {config.count} gives {total:,} trials, more than the {MAX_TRIALS:,} one sweep may "
+                         f"hold; split the study into several sweeps (different --seed or --out)")
 
 
 def _check_unique(specs: Sequence[TrialSpec]) -> None:

@@ -23,6 +23,7 @@ from pathlib import Path
 import pytest
 
 from navstack import sweep
+from navstack.cli import main
 from navstack.sweep import SweepConfig, SweepError, TrialSpec, build_specs, read_results, run_sweep
 
 TESTS_DIR = Path(__file__).resolve().parent
@@ -908,3 +909,17 @@ def test_a_sweep_whose_world_file_changed_is_not_resumed(tmp_path):
         run_sweep(specs[:2], out, jobs=1, runner=fake_runner, progress=False)
     edited.write_text(original)
     assert run_sweep(specs[:2], out, jobs=1, runner=fake_runner, progress=False).skipped == 2
+
+
+def test_a_sweep_of_more_than_a_million_trials_is_refused_before_it_is_listed(tmp_path, capsys):
+    """--count 100000000 ran out of memory before the first trial; 1,000,000 is the bound."""
+    from navstack.sweep import MAX_TRIALS
+
+    with pytest.raises(SweepError, match="gives 2,000,000 trials, more than the 1,000,000"):
+        build_specs(SweepConfig(families=("truss",), count=MAX_TRIALS, controllers=("slither", "tip-only")))
+    assert len(build_specs(SweepConfig(worlds_dir=str(write_worlds(tmp_path / "in", 2)), count=3))) == 6
+    folder = write_worlds(tmp_path / "in2", 2)
+    with pytest.raises(SweepError, match="more than the 1,000,000"):
+        build_specs(SweepConfig(worlds_dir=str(folder), count=MAX_TRIALS // 2 + 1))
+    assert main(["trials", "--generate", "truss", "--count", "100000000", "--out", str(tmp_path / "o")]) == 2
+    assert "more than the 1,000,000 one sweep may hold" in capsys.readouterr().err
