@@ -10,7 +10,9 @@ origins (interfaces.md section 1), so no point of the robot's surface moves fart
 than the farthest-moving origin; a mover moves at most its ``peak_speed`` times the time.  A signed
 distance changes by no more than the surfaces move, so after measuring ``d_j`` at step ``j`` a later step
 ``k`` cannot come below ``d_j - (origins' largest displacement) - (movers' peak speed) x (t_k - t_j + dt)``
-(the ``dt``: the movers are swept over the step before ``k``, as in the trial).  Steps whose bound is not
+(the ``dt``: the movers are swept over the step before ``k``, as in the trial), less PyBullet's
+:data:`~navstack.sim.exact_distance.MARGIN` (its distance to a box corner may read that much high where it
+is not sharpened).  Steps whose bound is not
 below the smallest clearance found so far are skipped; the result is the same minimum as measuring every
 step.  In free space, far from everything, a few measurements cover the whole trial.
 """
@@ -23,8 +25,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from navstack.sim.exact_distance import MARGIN
+
 FAR = 1.0e4
-"""m: the replay's query distance, beyond any two surfaces of a valid world (coordinates within 1 km)."""
+"""m: the replay's farthest query, beyond any two surfaces of a valid world (coordinates within 1 km)."""
 
 _CHUNK = 256
 """Steps whose bounds are computed at once."""
@@ -62,7 +66,7 @@ def _next_step(origins: NDArray[np.float64], times: NDArray[np.float64], j: int,
     while k < n:
         stop = min(k + _CHUNK, n)
         moved = np.sqrt(((origins[k:stop] - origins[j]) ** 2).sum(axis=2)).max(axis=1)
-        bound = here - moved - speed * (times[k:stop] - times[j] + dt)
+        bound = here - MARGIN - moved - speed * (times[k:stop] - times[j] + dt)  # ``here`` may read MARGIN high
         low = np.flatnonzero(bound < best)
         if len(low):
             return k + int(low[0])
@@ -78,11 +82,20 @@ def _place(scene: Any, body: Any, q: NDArray[np.float64], t: float) -> None:
 
 def _measure(scene: Any, body: Any, q: NDArray[np.float64], origins: NDArray[np.float64],
              times: NDArray[np.float64], k: int, dt: float, best: float) -> float:
-    """The trial's clearance at step ``k`` (``Simulation._measure``), exact below ``best`` and without a horizon."""
+    """The trial's clearance at step ``k`` (``Simulation._measure``), exact below ``best`` and without a horizon.
+
+    The query distance doubles from 1 m until something lies within it: PyBullet returns a closest point for
+    every triangle of a mesh within the distance, and one query of 10 km around a 5,120-triangle mesh crashed
+    it (a segmentation fault)."""
     _place(scene, body, q, times[k])
     boxes, capsules = body.link_boxes(origins), body.capsules(origins)
     record = min(best, FAR)
-    clearance = scene.clearance(body.body_id, FAR, boxes, record, capsules)
+    reach = 1.0
+    while True:
+        clearance = scene.clearance(body.body_id, reach, boxes, record, capsules)
+        if clearance < reach or reach >= FAR:
+            break
+        reach = min(2.0 * reach, FAR)
     if scene.movers and k:
         clearance = scene.swept_clearance(body.body_id, times[k] - dt, times[k], clearance, boxes, record,
                                           capsules)
