@@ -43,10 +43,27 @@ MAX_NAME_BYTES = 255
 
 
 def clear_run_files(out_dir: str | os.PathLike[str]) -> None:
-    """Remove what an earlier run wrote into ``out_dir`` (:data:`RUN_FILES`; its ``meshes/`` copies stay, as
-    the folder may hold the user's own meshes there, and the new ``world.json`` names the ones it uses)."""
+    """Remove what an earlier run wrote into ``out_dir`` (:data:`RUN_FILES`), if it holds one (a ``result.json``
+    or ``trajectory.npz``): a folder that never held a run keeps its files.  Its ``meshes/`` copies stay, as the
+    folder may hold the user's own meshes there, and the new ``world.json`` names the ones it uses."""
+    out = Path(out_dir)
+    if not any((out / name).is_file() for name in (RESULT_FILE, TRAJECTORY_FILE)):
+        return
     for name in RUN_FILES:
-        (Path(out_dir) / name).unlink(missing_ok=True)
+        if (out / name).is_file() or (out / name).is_symlink():
+            (out / name).unlink()
+
+
+def check_run_folder(world: World, out_dir: str | os.PathLike[str]) -> None:
+    """Refuse (``ValueError`` naming it) an output folder a run would damage: one where a file the run writes
+    is a folder, or whose ``world.json`` is the world file being run (the run would overwrite it)."""
+    out = Path(out_dir)
+    for name in RUN_FILES:
+        if (out / name).is_dir():
+            raise ValueError(f"{out / name} is a folder, where the run writes a file; choose another --out")
+    if world.source is not None and (out / WORLD_FILE).resolve() == Path(world.source).resolve():
+        raise ValueError(f"--out {out} would overwrite the world file {world.source} with the run's "
+                         f"{WORLD_FILE}; choose another --out")
 
 
 def mesh_copy_name(index: int, name: str) -> str:

@@ -230,6 +230,13 @@ def run_trial(
     try:
         check_start(world, built)
         out = check_out_dir(out_dir) if out_dir is not None else None
+        if out is not None:
+            from navstack.rundir import check_run_folder
+
+            try:
+                check_run_folder(world, out)
+            except ValueError as exc:
+                raise TrialInputError(str(exc)) from None
         sim = _Simulation(world, controller, planner, int(seed), cfg, visuals=render, built=built)
         if out is not None:  # the trial is ready: only now replace what an earlier run left in the folder
             from navstack.rundir import clear_run_files, write_run_world
@@ -605,12 +612,21 @@ class _Simulation:
             metrics={
                 "tip_error_max": float(self.tip_error_max),
                 "slither_deviation_max": float(self.slither_dev_max),
-                "min_clearance": float(self.min_clearance) if np.isfinite(self.min_clearance) else None,
+                "min_clearance": self._reported_clearance(reason),
                 "contacts": int(self.contacts),
             },
             error=error,
             retracted=bool(self.retracted) if self.world.retract else None,
         )
+
+    def _reported_clearance(self, reason: str) -> float | None:
+        """``min_clearance`` [m] for ``result.json``: None when unknown (no obstacle; never measured; a trial
+        that ended in ``error`` before anything came within the horizon, so it was not replayed)."""
+        if not np.isfinite(self.min_clearance):
+            return None
+        if reason == "error" and self.min_clearance >= self.cfg.clearance_horizon:
+            return None
+        return float(self.min_clearance)
 
     def close(self) -> None:
         if not self.closed:

@@ -173,3 +173,23 @@ def test_a_dense_mesh_just_beyond_the_horizon_is_measured_without_crashing_pybul
     outer = closed_form(q, w, center, 0.3)
     assert outer - 1e-3 <= result.metrics["min_clearance"] <= outer + 1e-3
     assert result.metrics["min_clearance"] > HORIZON
+
+
+def test_a_trial_that_fails_far_from_everything_reports_no_clearance(monkeypatch):
+    """An ``error`` trial is not replayed: what it measured is only 'at least 0.5 m' (it reported 0.5)."""
+    calls = []
+    plan = _Simulation._plan
+
+    def failing(self, *args):
+        calls.append(1)
+        if len(calls) > 3:
+            raise RuntimeError("the planner failed")
+        return plan(self, *args)
+
+    monkeypatch.setattr(_Simulation, "_plan", failing)
+    far_away = world_from_dict(world({"type": "sphere", "center": [-5.0, -5.0, -5.0], "radius": 0.1}))
+    result = run_trial(far_away, planner="scripted")
+    assert result.reason == "error" and result.metrics["min_clearance"] is None
+    near = world_from_dict(world({"type": "sphere", "center": (TIP + [0.0, 0.0, 0.2]).tolist(), "radius": 0.1}))
+    result = run_trial(near, planner="scripted")  # within the horizon: what it measured is exact
+    assert result.reason == "error" and result.metrics["min_clearance"] == pytest.approx(0.2 - 0.1 - 0.025, abs=0.01)

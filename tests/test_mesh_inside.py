@@ -13,7 +13,7 @@ from _worlds import BASE_POSITION, TIP, world_data
 from scipy.spatial.transform import Rotation
 
 from navstack.cli import main
-from navstack.sim.mesh_inside import is_closed, points_inside, winding_numbers
+from navstack.sim.mesh_inside import is_closed, points_inside, solids, winding_numbers
 from navstack.trial import check_start
 from navstack.world import Mesh, WorldError, load_world
 
@@ -150,3 +150,39 @@ def test_an_open_mesh_around_the_robot_or_a_closed_one_elsewhere_is_accepted(tmp
     else:
         world = _block_world(tmp_path, block, TIP + [0.0, 0.0, 5.0])
     check_start(load_world(world))
+
+
+@pytest.mark.parametrize("second_turned", [False, True])
+def test_overlapping_closed_parts_each_hold_their_inside_whatever_their_orientation(tmp_path, second_turned):
+    """Two overlapping closed boxes in one file, the second with its faces turned inward: their winding
+    numbers cancel where they overlap (+1 - 1 = 0), and a robot there was a SUCCESS (a review's case).  Each
+    part is now taken on its own."""
+    a = trimesh.creation.box(extents=[1.0, 1.0, 1.0])
+    b = trimesh.creation.box(extents=[1.0, 1.0, 1.0])
+    b.apply_translation([0.5, 0.0, 0.0])
+    if second_turned:
+        b.invert()
+    both = trimesh.util.concatenate([a, b])
+    both.export(tmp_path / "two.stl")
+    assert len(solids(both.vertices, both.faces)) == 2 and is_closed(both.vertices, both.faces)
+    mesh = Mesh(path=tmp_path / "two.stl", position=np.zeros(3), rpy=np.zeros(3), scale=1.0)
+    points = np.array([[0.25, 0, 0], [-0.3, 0, 0], [0.8, 0, 0], [1.2, 0, 0]])  # both, only a, only b, neither
+    assert points_inside(mesh, points).tolist() == [True, True, True, False]
+    big = trimesh.util.concatenate([trimesh.creation.box(extents=[6.0, 6.0, 6.0]),
+                                    trimesh.creation.box(extents=[6.0, 6.0, 6.0]).apply_translation([1.0, 0, 0])])
+    if second_turned:
+        big = trimesh.Trimesh(big.vertices, np.vstack([big.faces[:12], big.faces[12:, ::-1]]), process=False)
+    world = _block_world(tmp_path, big, BASE_POSITION)  # the robot inside both
+    with pytest.raises(WorldError, match="is inside this mesh"):
+        check_start(load_world(world))
+
+
+def test_a_closed_part_beside_an_open_one_still_has_its_inside(tmp_path):
+    closed = trimesh.creation.box(extents=[1.0, 1.0, 1.0])
+    plate = trimesh.creation.box(extents=[1.0, 1.0, 0.1]).apply_translation([3.0, 0, 0])
+    plate = trimesh.Trimesh(plate.vertices, plate.faces[:-2])  # a box with a face missing: open
+    both = trimesh.util.concatenate([closed, plate])
+    both.export(tmp_path / "mixed.stl")
+    assert not is_closed(both.vertices, both.faces) and len(solids(both.vertices, both.faces)) == 1
+    mesh = Mesh(path=tmp_path / "mixed.stl", position=np.zeros(3), rpy=np.zeros(3), scale=1.0)
+    assert points_inside(mesh, np.array([[0.0, 0, 0], [3.0, 0, 0]])).tolist() == [True, False]

@@ -63,3 +63,29 @@ def test_a_mesh_with_a_255_byte_file_name_is_copied_into_the_run_folder(tmp_path
     assert len(copied.name.encode()) <= MAX_NAME_BYTES
     assert copied.read_bytes() == (folder / name).read_bytes()
     assert mesh_copy_name(3, "node.stl") == "003-node.stl"  # short names as before
+
+
+def test_a_folder_that_never_held_a_run_keeps_its_files(tmp_path):
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "scene.png").write_bytes(b"the user's own picture")
+    run_trial(world_from_dict(_short("first")), planner="scripted", out_dir=out)
+    assert (out / "scene.png").read_bytes() == b"the user's own picture"
+
+
+def test_an_output_folder_the_run_would_damage_is_bad_input(tmp_path, capsys):
+    """A folder named scene.png where the picture goes (it became an internal error), and --out the world
+    file's own folder when the file is world.json (the run overwrote the user's world)."""
+    from navstack.cli import main
+
+    out = tmp_path / "out"
+    (out / "scene.png").mkdir(parents=True)
+    with pytest.raises(navstack.trial.TrialInputError, match="scene.png is a folder"):
+        run_trial(world_from_dict(_short("first")), planner="scripted", out_dir=out)
+    folder = tmp_path / "w"
+    folder.mkdir()
+    (folder / "world.json").write_text(json.dumps(_short("mine")))
+    before = (folder / "world.json").read_bytes()
+    assert main(["run", str(folder / "world.json"), "--out", str(folder), "--planner", "scripted"]) == 2
+    assert "would overwrite the world file" in capsys.readouterr().err
+    assert (folder / "world.json").read_bytes() == before and not (folder / "result.json").exists()

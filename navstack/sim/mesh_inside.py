@@ -10,7 +10,8 @@ mesh's shape (Jacobson, Kavan and Sorkine-Hornung, "Robust inside-outside segmen
 winding numbers", SIGGRAPH 2013).  Each triangle's solid angle is Van Oosterom and Strackee's closed form
 (IEEE Trans. Biomed. Eng. 1983).  Only *closed* meshes (every edge shared by exactly two faces, trimesh's
 ``is_watertight``, once repeated triangles are dropped) have an inside; an open surface has none and is never
-said to contain a point.  The faces' orientations are made consistent first (:func:`solid`).  Points on
+said to contain a point.  Each connected part is taken on its own, its faces' orientations made
+consistent first (:func:`solids`); a point is inside if any closed part holds it.  Points on
 the surface itself are not meaningful here: the caller has already refused any contact with it.
 """
 
@@ -39,27 +40,38 @@ def winding_numbers(vertices: ArrayLike, faces: ArrayLike, points: ArrayLike) ->
     return out
 
 
-def solid(vertices: ArrayLike, faces: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.int64]] | None:
-    """The closed, consistently oriented triangle mesh that ``faces`` (F, 3) of ``vertices`` (V, 3) bound, or
-    None if they bound nothing.  Coincident vertices are merged and repeated triangles dropped (an STL's
-    duplicates), then the mesh must be closed: every edge shared by exactly two faces (trimesh's
-    ``is_watertight``).  Faces turned against their neighbours are turned back (``trimesh.repair.fix_winding``):
-    a winding number sums the faces' signed solid angles, and a closed box with every other face flipped
-    has a winding number of 0 everywhere, a robot inside it looking outside."""
+def solids(vertices: ArrayLike, faces: ArrayLike) -> list[tuple[NDArray[np.float64], NDArray[np.int64]]]:
+    """The closed, consistently oriented parts of the triangle mesh ``faces`` (F, 3) of ``vertices`` (V, 3).
+
+    Coincident vertices are merged and repeated triangles dropped (an STL's duplicates); the mesh is split
+    into its connected parts, and each part that is closed (every edge shared by exactly two faces, trimesh's
+    ``is_watertight``) is a solid, its faces turned to agree with their neighbours
+    (``trimesh.repair.fix_winding``).  A winding number sums the faces' signed solid angles, so a closed box
+    with every other face turned has 0 everywhere, and two overlapping closed parts turned opposite ways
+    cancel where they overlap: a robot inside either looked outside.  Parts that are not closed have no
+    inside and are left out."""
     import trimesh  # slow to import: only mesh worlds need it
 
     mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=True)
     mesh.update_faces(mesh.unique_faces())
-    if not mesh.is_watertight:
-        return None
-    if not mesh.is_winding_consistent:
-        trimesh.repair.fix_winding(mesh)
-    return np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int64)
+    out = []
+    for part in mesh.split(only_watertight=False, repair=False):  # repair=True would fill holes
+        if part.is_watertight:
+            if not part.is_winding_consistent:
+                trimesh.repair.fix_winding(part)
+            out.append((np.asarray(part.vertices, dtype=np.float64), np.asarray(part.faces, dtype=np.int64)))
+    return out
 
 
 def is_closed(vertices: ArrayLike, faces: ArrayLike) -> bool:
-    """Whether the triangles ``faces`` (F, 3) of ``vertices`` (V, 3) close up (:func:`solid`)."""
-    return solid(vertices, faces) is not None
+    """Whether the triangles ``faces`` (F, 3) of ``vertices`` (V, 3) close up: every part is closed
+    (:func:`solids`)."""
+    import trimesh
+
+    mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=True)
+    mesh.update_faces(mesh.unique_faces())
+    parts = mesh.split(only_watertight=False, repair=False)
+    return len(parts) > 0 and all(part.is_watertight for part in parts)
 
 
 def points_inside(mesh: Mesh, points: ArrayLike) -> NDArray[np.bool_]:
@@ -70,9 +82,9 @@ def points_inside(mesh: Mesh, points: ArrayLike) -> NDArray[np.bool_]:
     R = Rotation.from_euler("xyz", mesh.rpy).as_matrix()  # as the scene places it (scene._quat_xyzw_from_rpy)
     local = (pts - mesh.position) @ R  # R.T @ (p - position), row by row
     inside = np.all((local >= vertices.min(axis=0)) & (local <= vertices.max(axis=0)), axis=1)  # in its box
-    closed = solid(vertices, faces) if inside.any() else None  # a surface with a hole has no inside
-    if closed is not None:
-        inside[inside] = np.abs(winding_numbers(*closed, local[inside])) > 0.5
-    else:
-        inside[:] = False
+    parts = solids(vertices, faces) if inside.any() else []  # a surface with a hole has no inside
+    in_any = np.zeros(int(inside.sum()), dtype=bool)
+    for part in parts:
+        in_any |= np.abs(winding_numbers(*part, local[inside])) > 0.5
+    inside[inside] = in_any
     return inside
