@@ -403,9 +403,11 @@ def main(argv: list[str] | None = None) -> int:
     except (WorldError, BadInput, TrialInputError) as exc:
         print(f"{name}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except BrokenPipeError:  # the reader of our output went away (`navstack run ... | head -1`): not an error
-        _silence_stdout()
-        return EXIT_BROKEN_PIPE
+    except BrokenPipeError as exc:
+        if _stdout_reader_gone():  # the reader of our output went away (`navstack run ... | head -1`)
+            _silence_stdout()
+            return EXIT_BROKEN_PIPE
+        return _internal(name, exc, argv)  # some other pipe: an internal error
     except (ValueError, OSError) as exc:  # other commands: an unusable path or value given by the user
         if checked:
             return _internal(name, exc, argv)
@@ -416,6 +418,22 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except Exception as exc:  # noqa: BLE001 - internal error: exit 1 with a one-line message
         return _internal(name, exc, argv)
+
+
+def _stdout_reader_gone() -> bool:
+    """Whether standard output is a pipe whose reading end is closed (``poll`` reports an error on it)."""
+    import select
+    import stat
+
+    try:
+        fd = sys.stdout.fileno()
+        if not stat.S_ISFIFO(os.fstat(fd).st_mode):
+            return False
+        poller = select.poll()
+        poller.register(fd, select.POLLOUT)
+        return any(events & (select.POLLERR | select.POLLHUP) for _, events in poller.poll(0))
+    except (OSError, ValueError, AttributeError):  # no file descriptor (captured output), no poll
+        return False
 
 
 def _silence_stdout() -> None:

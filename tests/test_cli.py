@@ -92,3 +92,14 @@ def test_an_empty_output_or_worlds_path_is_an_argument_error(argv, capsys):
         main(argv)
     assert ei.value.code == 2
     assert "expected a path, got" in capsys.readouterr().err
+
+
+def test_a_broken_pipe_that_is_not_standard_output_is_an_internal_error(monkeypatch, capsys):
+    import navstack.cli as cli
+
+    def broken(args):
+        raise BrokenPipeError(32, "Broken pipe")  # e.g. a worker's pipe, while stdout is fine
+
+    monkeypatch.setattr(cli, "_check_world", broken)
+    assert main(["check-world", "worlds/paper_truss.json"]) == 1
+    assert "internal error: BrokenPipeError" in capsys.readouterr().err
