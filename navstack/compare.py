@@ -31,9 +31,9 @@ from typing import Any
 
 import numpy as np
 
-from navstack.report import NO_FAMILY, ReportError, load_results, method_label
+from navstack.report import NO_FAMILY, POOLED, ReportError, family_label, load_results, method_label
 
-ALL_FAMILIES = "(all)"
+ALL_FAMILIES = POOLED
 CONFIDENCE = 0.95
 Method = tuple[str, str]
 
@@ -183,11 +183,11 @@ def compare(records_a: Sequence[Mapping[str, Any]], records_b: Sequence[Mapping[
     for ma, mb in match_methods(methods_a, methods_b):
         ra = [r for r in records_a if _method(r) == ma]
         rb = [r for r in records_b if _method(r) == mb]
-        fams_a = {r.get("family") or NO_FAMILY for r in ra}
-        fams_b = {r.get("family") or NO_FAMILY for r in rb}
+        fams_a = {family_label(r) for r in ra}
+        fams_b = {family_label(r) for r in rb}
         for fam in sorted(fams_a & fams_b, key=lambda f: (f == NO_FAMILY, f)):
-            rows.append(compare_rows([r for r in ra if (r.get("family") or NO_FAMILY) == fam],
-                                     [r for r in rb if (r.get("family") or NO_FAMILY) == fam], ma, mb, fam))
+            rows.append(compare_rows([r for r in ra if family_label(r) == fam],
+                                     [r for r in rb if family_label(r) == fam], ma, mb, fam))
         rows.append(compare_rows(ra, rb, ma, mb, ALL_FAMILIES))
     return rows
 

@@ -51,6 +51,18 @@ Z95 = 1.959963984540054
 
 REASONS: tuple[str, ...] = ("reached", "collision", "timeout", "stalled", "joint_limit", "error")
 NO_FAMILY = "(none)"
+POOLED = "(all)"
+"""The label of ``navstack compare``'s row over every family."""
+
+
+def family_label(record: Mapping[str, Any]) -> str:
+    """The family a record is grouped and shown under: its ``family``, :data:`NO_FAMILY` when it has none, and
+    a family that is literally spelled like one of those labels in quotes (a world may call its family
+    ``(none)``; it must not be merged with the records that have none)."""
+    f = record.get("family")
+    if not f:
+        return NO_FAMILY
+    return f'"{f}"' if f in (NO_FAMILY, POOLED) else str(f)
 METRICS: tuple[tuple[str, str, str], ...] = (
     ("min_clearance", "Minimum clearance (m), all trials", "min_clearance.png"),
     ("slither_deviation_max", "Slithering deviation (m), all trials", "slither_deviation.png"),
@@ -325,8 +337,7 @@ def summarize(records: Iterable[Mapping[str, Any]], *, checked: bool = False) ->
     def method(r: Mapping[str, Any]) -> tuple[str, str]:
         return (r["controller"], r["planner"])
 
-    def family(r: Mapping[str, Any]) -> str:
-        return r.get("family") or NO_FAMILY
+    family = family_label
 
     methods = tuple(sorted({method(r) for r in records}))
     families = tuple(sorted({family(r) for r in records}, key=_fam_key))

@@ -277,3 +277,9 @@ def test_mistyped_fields_are_bad_input_naming_the_line(tmp_path, capsys, change,
     b = _write(tmp_path / "b", recs)
     assert compare.run_from_args(_args([str(a), str(b)])) == 2
     assert f"{b / 'results.jsonl'}, line 3: {needle}" in capsys.readouterr().err
+
+
+def test_a_family_named_all_is_not_the_pooled_row():
+    a = {("(all)", i): True for i in range(4)} | {("truss", i): False for i in range(4)}
+    rows = compare.compare(sweep_records(a), sweep_records(a))
+    assert [(r.family, r.n_a, r.k_a) for r in rows] == [('"(all)"', 4, 4), ("truss", 4, 0), ("(all)", 8, 4)]

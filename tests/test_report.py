@@ -444,3 +444,15 @@ def test_numbers_at_the_bound_make_every_plot_without_a_warning(tmp_path):
         warnings.simplefilter("error")
         text = write_report(tmp_path).read_text()
     assert "(plots/success_vs_difficulty.png)" in text and "(plots/min_clearance.png)" in text
+
+
+def test_a_family_spelled_like_a_label_is_not_merged_with_records_without_one():
+    """A world may call its family "(none)": its trials were counted with the trials that have no family."""
+    recs = [r for r in synthetic_records() if r.get("family") is None]
+    named = [dict(r, trial_id=f"n{r['trial_id']}", family="(none)", success=True, reason="reached",
+                  goals_reached=1, metrics={**r["metrics"], "min_clearance": 0.02}) for r in recs]
+    s = summarize(recs + named)
+    assert s.families == ('"(none)"', "(none)")
+    method = recs[0]["controller"], recs[0]["planner"]
+    n_none = sum(1 for r in recs if (r["controller"], r["planner"]) == method)
+    assert s.by_family[("(none)", method)].n == n_none and s.by_family[('"(none)"', method)].successes == n_none
