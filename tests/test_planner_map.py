@@ -531,6 +531,33 @@ def test_clearing_matches_the_rule_for_random_rays_through_random_points():
     assert not missed, f"{len(missed)} of 300 points on a clean ray survived, e.g. {missed[0]}"
 
 
+def test_a_ray_passing_just_inside_or_outside_the_clear_radius_of_a_point_beside_its_bucket():
+    """The kernel scans only the buckets the segment, grown by the clear radius, touches.  A point 0.1-0.9 mm
+    inside a face of its bucket, the ray 0.9 clear radius from it on the other side of that face (so in the
+    next bucket all along): removed; 1.1 clear radius away: kept."""
+    rng = np.random.default_rng(11)
+    r = CLEARING.clear_radius
+    wrong = []
+    for trial in range(400):
+        offset = (0.9 if trial % 2 == 0 else 1.1) * r
+        smap = _map(CLEARING)
+        axis, up = int(rng.integers(3)), bool(rng.integers(2))
+        o = smap.origin  # the buckets' lattice starts there
+        p = o + (np.floor((rng.uniform(0.1, 0.4, 3) - o) / CFG.bucket) + 0.5) * CFG.bucket  # a bucket's centre
+        p[axis] += (1 if up else -1) * (CFG.bucket / 2 - rng.uniform(0.0001, 0.0009))  # near one face
+        smap.add_points([p])
+        normal = np.zeros(3)
+        normal[axis] = 1.0 if up else -1.0
+        d = rng.normal(size=3)
+        d -= (d @ normal) * normal  # the ray runs along the face
+        d /= np.linalg.norm(d)
+        origin = p + offset * normal - rng.uniform(0.1, 0.25) * d
+        smap.update([origin], [d], [0.03], [0.4], [False], [True])
+        if smap.n_points != (0 if offset < r else 1):
+            wrong.append((trial, p, d))
+    assert not wrong, f"{len(wrong)} of 400 wrong, e.g. {wrong[0]}"
+
+
 def test_a_ray_through_a_point_near_a_bucket_corner_removes_it():
     """The bug above, smallest case: the ray passes exactly through the point 0.2 m after its origin
     (well before its end), but clips the point's bucket (edges at -0.7 + 0.08 k: 0.1 here) for 3 mm."""
