@@ -36,6 +36,12 @@ class BadInput(Exception):
     """A user error that the CLI reports in one line with exit status 2."""
 
 
+def _shown(text: str) -> str:
+    """``text`` from a world file as it may reach a terminal: control characters (an escape sequence could
+    rewrite the screen) written as Python escapes (``\\x1b``), everything else as it is."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
+
+
 def _mm(value: float | None) -> str:
     """A length [m] in millimetres; None (no obstacle in the world): ``none``."""
     return "none" if value is None else f"{value * 1e3:.1f} mm"
@@ -44,7 +50,7 @@ def _mm(value: float | None) -> str:
 def _summary(result) -> str:
     m = result.metrics
     return (
-        f"{result.world}: {'SUCCESS' if result.success else 'FAILURE'} ({result.reason}), "
+        f"{_shown(result.world)}: {'SUCCESS' if result.success else 'FAILURE'} ({result.reason}), "
         f"goals {result.goals_reached}, sim {result.sim_time:.2f} s in {result.steps} steps, "
         f"wall {result.wall_time:.1f} s\n"
         f"  tip_error_max {m['tip_error_max'] * 1e3:.2f} mm, slither_deviation_max "
@@ -170,7 +176,7 @@ def _check_world(args: argparse.Namespace) -> int:
             continue
         moving = sum(getattr(o, "motion", None) is not None for o in w.obstacles)
         _warn_blocked_goals(f"navstack check-world: {path}", w)
-        print(f"{path}: ok ({w.name}: {len(w.obstacles)} obstacles{f' ({moving} moving)' if moving else ''}, "
+        print(f"{path}: ok ({_shown(w.name)}: {len(w.obstacles)} obstacles{f' ({moving} moving)' if moving else ''}, "
               f"{len(w.goals)} goals, time limit {w.time_limit:g} s, robot clear of every obstacle at t = 0)")
     return status
 

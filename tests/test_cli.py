@@ -103,3 +103,18 @@ def test_a_broken_pipe_that_is_not_standard_output_is_an_internal_error(monkeypa
     monkeypatch.setattr(cli, "_check_world", broken)
     assert main(["check-world", "worlds/paper_truss.json"]) == 1
     assert "internal error: BrokenPipeError" in capsys.readouterr().err
+
+
+def test_control_characters_in_a_world_name_do_not_reach_the_terminal(tmp_path, capsys):
+    """A name with an escape sequence (it could clear or rewrite the screen) is shown escaped."""
+    from _worlds import world_data
+
+    data = world_data(time_limit=0.1)
+    data["name"] = "w\x1b[2J\x07x"
+    path = tmp_path / "w.json"
+    path.write_text(json.dumps(data))
+    assert main(["check-world", str(path)]) == 0
+    assert main(["run", str(path), "--out", str(tmp_path / "o"), "--planner", "scripted"]) == 0
+    out = capsys.readouterr().out
+    assert "\x1b" not in out and "\x07" not in out
+    assert out.count("w\\x1b[2J\\x07x") == 2
