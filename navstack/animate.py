@@ -398,4 +398,6 @@ def animate_stats(run_dir: str | os.PathLike[str], out: str | os.PathLike[str] |
     path = default_output(run_dir) if out is None else Path(out)
     if path.suffix.lower() == ".mp4" and not _ffmpeg_available():
         path = path.with_suffix(".gif")
+    if path.is_dir():  # found before the frames are drawn, not after
+        raise ValueError(f"{path} is a folder; give the animation file to write (.mp4 or .gif)")
     return write_animation(run, path, config)

@@ -132,14 +132,17 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _demo(args: argparse.Namespace) -> int:
-    from navstack.trial import run_trial
+    from navstack.trial import check_out_dir, run_trial
     from navstack.truss import paper_truss_world
     from navstack.world import world_from_dict
 
     world = world_from_dict(paper_truss_world())
+    controllers = list(dict.fromkeys(args.controller or ["slither", "tip-only"]))  # each once
+    for controller in controllers:  # every output folder checked before anything is simulated
+        check_out_dir(Path(args.out) / controller)
     print(f"navstack demo: {world.description}")
     status = EXIT_OK
-    for controller in args.controller or ["slither", "tip-only"]:
+    for controller in controllers:
         out = Path(args.out) / controller
         result = run_trial(world, controller=controller, planner=args.planner, seed=args.seed, out_dir=out, render=True)
         print(f"[{controller}] " + _summary(result))
@@ -238,6 +241,35 @@ def _non_negative_int(text: str) -> int:
     return value
 
 
+def _port(text: str) -> int:
+    """``view --port``: 0 (any free port) .. 65535 (a port outside made the server thread fail and the
+    command hang)."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if not 0 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"expected a port number from 0 (any free one) to 65535, got {text!r}")
+    return value
+
+
+def _host(text: str) -> str:
+    """``view --host``: an address this machine has (an empty one listened on every interface while the
+    command printed 127.0.0.1; one it cannot bind made the command hang)."""
+    import socket
+
+    if not text.strip():
+        raise argparse.ArgumentTypeError("expected an address to listen on (0.0.0.0 for every interface), got ''")
+    try:
+        for family, kind, proto, _, address in socket.getaddrinfo(text, 0, type=socket.SOCK_STREAM):
+            with socket.socket(family, kind, proto) as probe:
+                probe.bind(address)
+                return text
+    except OSError as exc:
+        raise argparse.ArgumentTypeError(f"cannot listen on {text!r} ({exc})") from None
+    raise argparse.ArgumentTypeError(f"cannot listen on {text!r} (no address)")
+
+
 def nonempty_path(text: str) -> str:
     """An ``--out`` / ``--worlds`` path: an empty one would silently mean the current folder."""
     if not text.strip():
@@ -329,7 +361,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     a = sub.add_parser("animate", help="animate a run folder (trajectory.npz + world.json) to MP4 or GIF")
     a.add_argument("run_dir", help="a folder written by navstack run --out (or demo, or a sweep's kept trial)")
-    a.add_argument("--out", help="file to write, .mp4 or .gif (default: RUN_DIR/animation.mp4)")
+    a.add_argument("--out", type=nonempty_path, help="file to write, .mp4 or .gif (default: RUN_DIR/animation.mp4)")
     a.add_argument("--fps", type=float, help="frames per second (default 15)")
     a.add_argument("--speed", type=float, help="simulated seconds per second of video (default 1: real time)")
     a.add_argument("--size", help="WIDTHxHEIGHT in pixels, multiples of 16 (default 768x432)")
@@ -342,8 +374,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     v = sub.add_parser("view", help="3D viewer of a run folder in the browser (needs: pip install 'navstack[viewer]')")
     v.add_argument("run_dir", help="a folder written by navstack run --out")
-    v.add_argument("--port", type=int, default=8080, help="local port (default 8080; the next free one if taken)")
-    v.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
+    v.add_argument("--port", type=_port, default=8080, help="local port (default 8080; the next free one if taken)")
+    v.add_argument("--host", type=_host, default="127.0.0.1",
+                   help="address to listen on (default 127.0.0.1: this machine only)")
     v.add_argument("--world", help="the world file, for run folders without world.json")
     v.set_defaults(func=_view)
 
@@ -362,7 +395,7 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--retract", action=argparse.BooleanOptionalAction, default=None,
                    help='write "retract": true (back out to the start after the last goal); default: the '
                         "family's (true for dead-end only)")
-    g.add_argument("--out", required=True, help="world file to write")
+    g.add_argument("--out", required=True, type=nonempty_path, help="world file to write")
     g.set_defaults(func=_generate)
 
     t = sub.add_parser("trials", help="run many trials in parallel into DIR/results.jsonl (resumable)",
@@ -388,7 +421,7 @@ def build_parser() -> argparse.ArgumentParser:
     m.set_defaults(func=_model)
 
     u = sub.add_parser("urdf", help="write the robot as URDF (joint limits, capsule collision geometry, masses)")
-    u.add_argument("--out", help="URDF file to write (default: standard output)")
+    u.add_argument("--out", type=nonempty_path, help="URDF file to write (default: standard output)")
     u.add_argument("--serpentine-radius", type=float, default=0.025, help="serpentine capsule radius [m]")
     u.add_argument("--arm-radius", type=float, default=0.06, help="arm capsule radius [m]")
     u.set_defaults(func=_urdf)

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from navstack.world import Mesh, World, WorldError, load_world, save_world
+from navstack.world import MAX_TIME_LIMIT, Mesh, World, WorldError, load_world, save_world
 
 WORLD_FILE = "world.json"
 TRAJECTORY_FILE = "trajectory.npz"
@@ -134,20 +134,101 @@ class RunData:
         return float(self.t[-1]) if len(self.t) else 0.0
 
 
-def _array(data: dict[str, np.ndarray], key: str, shape: tuple[int | None, ...], file: Path, *,
-           finite: bool = True) -> np.ndarray:
+MAX_SAMPLES = 200_000
+"""The most control steps a trajectory may hold (a trial of the longest ``time_limit``, 3600 s at 30 Hz, has
+108,001); a header claiming more is refused before anything is read."""
+MAX_SENSED = 1_000
+"""The most sensed points per control step ``sensed`` may hold."""
+_ARRAYS = {"t": (None,), "q": (None, 20), "q_des": (None, 20), "tip_des": (None, 3), "sensed": (None, None, 3)}
+
+
+def _read_arrays(traj: Path) -> dict[str, np.ndarray]:
+    """The arrays of ``trajectory.npz`` that a run folder uses, each header checked (shape, a real numeric
+    dtype, size) before its data is read: a header may claim terabytes, and a member may be a zip bomb."""
+    if not zipfile.is_zipfile(traj):
+        raise ValueError(f"{traj}: not a .npz archive (numpy.savez writes a zip file)")
+    out: dict[str, np.ndarray] = {}
+    try:
+        with zipfile.ZipFile(traj) as z:
+            names = {n[:-4]: n for n in z.namelist() if n.endswith(".npy")}
+            for key, shape in _ARRAYS.items():
+                if key in names:
+                    with z.open(names[key]) as fh:
+                        dims, dtype = _npy_header(fh)
+                    _check_header(traj, key, dims, dtype, shape)
+                    with z.open(names[key]) as fh:
+                        out[key] = np.lib.format.read_array(fh, allow_pickle=False)
+    except (OSError, EOFError, zipfile.BadZipFile, zlib.error) as e:
+        raise ValueError(f"{traj}: not a readable .npz archive ({e})") from e
+    return out
+
+
+def _npy_header(fh: Any) -> tuple[tuple[int, ...], np.dtype]:
+    """Shape and dtype from a ``.npy`` member's header, its data unread (``OSError`` if it is not one)."""
+    try:
+        version = np.lib.format.read_magic(fh)
+        if version == (1, 0):
+            dims, _, dtype = np.lib.format.read_array_header_1_0(fh)
+        elif version == (2, 0):
+            dims, _, dtype = np.lib.format.read_array_header_2_0(fh)
+        else:
+            raise OSError(f"an .npy format version {version} header")
+    except ValueError as e:
+        raise OSError(f"a bad .npy header: {e}") from e
+    return tuple(int(x) for x in dims), np.dtype(dtype)
+
+
+def _check_header(traj: Path, key: str, dims: tuple[int, ...], dtype: np.dtype,
+                  shape: tuple[int | None, ...]) -> None:
+    want = "(" + ", ".join(str(s) if s is not None else ("K" if i else "T") for i, s in enumerate(shape)) + ")"
+    if len(dims) != len(shape) or any(s is not None and s != n for s, n in zip(shape, dims, strict=True)):
+        raise ValueError(f"{traj}: array {key!r} has shape {dims}, expected {want}")
+    if dtype.kind not in "fiu":
+        raise ValueError(f"{traj}: array {key!r} holds {dtype} values, expected real numbers")
+    if dims[0] > MAX_SAMPLES or (key == "sensed" and dims[1] > MAX_SENSED):
+        raise ValueError(f"{traj}: array {key!r} claims shape {dims}: more than {MAX_SAMPLES:,} control steps"
+                         + (f" or {MAX_SENSED:,} points per step" if key == "sensed" else ""))
+
+
+def _array(data: dict[str, np.ndarray], key: str, file: Path, *, finite: bool = True,
+           bound: float = 1.0e4) -> np.ndarray:
+    """``data[key]`` as float64, its values finite (``finite``; else NaN allowed) and within +-``bound``."""
     if key not in data:
         raise ValueError(f"{file}: has no array {key!r} (expected t, q, q_des, tip_des as navstack run writes)")
-    try:
-        a = np.asarray(data[key], dtype=np.float64)
-    except (TypeError, ValueError) as e:
-        raise ValueError(f"{file}: array {key!r} is not numeric ({e})") from e
-    if a.ndim != len(shape) or any(s is not None and s != n for s, n in zip(shape, a.shape, strict=True)):
-        want = "(" + ", ".join("T" if s is None else str(s) for s in shape) + ")"
-        raise ValueError(f"{file}: array {key!r} has shape {a.shape}, expected {want}")
+    a = np.asarray(data[key], dtype=np.float64)
     if finite and not np.isfinite(a).all():
         raise ValueError(f"{file}: array {key!r} holds NaN or infinite values")
+    if not np.all(np.isnan(a) | (np.abs(a) <= bound)):
+        raise ValueError(f"{file}: array {key!r} holds values beyond +-{bound:g} (or infinite ones): not a trajectory "
+                         f"of this robot in a world within 1 km")
     return a
+
+
+def _read_result(rfile: Path) -> dict[str, Any] | None:
+    """``result.json``, its fields checked against interfaces.md section 3 where present (an edited file must
+    not make a failed trial read as a success in the pictures); None when the folder has none."""
+    if not rfile.exists():
+        return None
+    try:
+        result = json.loads(rfile.read_text(encoding="utf-8"))
+    except (OSError, ValueError, RecursionError) as e:
+        why = "nested too deeply" if isinstance(e, RecursionError) else e
+        raise ValueError(f"{rfile}: not readable JSON ({why})") from e
+    if not isinstance(result, dict):
+        raise ValueError(f"{rfile}: expected a JSON object")
+    checks = {"success": lambda v: isinstance(v, bool), "reason": lambda v: v in _REASONS,
+              "goals_reached": lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 0,
+              "metrics": lambda v: isinstance(v, dict)}
+    for key, ok in checks.items():
+        if key in result and not ok(result[key]):
+            raise ValueError(f"{rfile}: field {key!r} is {result[key]!r:.80}, not what navstack run writes "
+                             f"(interfaces.md section 3)")
+    if result.get("success") is True and result.get("reason", "reached") != "reached":
+        raise ValueError(f"{rfile}: 'success' is true but 'reason' is {result['reason']!r}")
+    return result
+
+
+_REASONS = ("reached", "collision", "timeout", "stalled", "joint_limit", "error")
 
 
 def load_run(run_dir: str | os.PathLike[str], world: str | os.PathLike[str] | World | None = None) -> RunData:
@@ -172,16 +253,12 @@ def load_run(run_dir: str | os.PathLike[str], world: str | os.PathLike[str] | Wo
         world = load_world(wfile)
     elif not isinstance(world, World):
         world = load_world(world)
-    try:
-        with np.load(traj, allow_pickle=False) as npz:
-            data = {key: np.asarray(npz[key]) for key in npz.files}
-    except (OSError, EOFError, ValueError, zipfile.BadZipFile, zlib.error) as e:
-        raise ValueError(f"{traj}: not a readable .npz archive ({e})") from e
-    t = _array(data, "t", (None,), traj)
-    q = _array(data, "q", (None, 20), traj)
-    q_des = _array(data, "q_des", (None, 20), traj)
-    tip_des = _array(data, "tip_des", (None, 3), traj)
-    sensed = _array(data, "sensed", (None, None, 3), traj, finite=False) if "sensed" in data else None
+    data = _read_arrays(traj)
+    t = _array(data, "t", traj)
+    q = _array(data, "q", traj, bound=1.0e3)
+    q_des = _array(data, "q_des", traj, bound=1.0e3)
+    tip_des = _array(data, "tip_des", traj)
+    sensed = _array(data, "sensed", traj, finite=False) if "sensed" in data else None
     n = len(t)
     if n == 0:
         raise ValueError(f"{traj}: holds no samples (the trial recorded no control step)")
@@ -193,15 +270,10 @@ def load_run(run_dir: str | os.PathLike[str], world: str | os.PathLike[str] | Wo
             raise ValueError(f"{traj}: {key} has {m} samples but t has {n}")
     if n > 1 and not (np.diff(t) > 0).all():
         raise ValueError(f"{traj}: t must increase from sample to sample")
-    result = None
-    rfile = run / RESULT_FILE
-    if rfile.is_file():
-        try:
-            result = json.loads(rfile.read_text(encoding="utf-8"))
-        except (OSError, ValueError) as e:
-            raise ValueError(f"{rfile}: not readable JSON ({e})") from e
-        if not isinstance(result, dict):
-            raise ValueError(f"{rfile}: expected a JSON object")
+    if not (t[0] >= 0.0 and t[-1] <= MAX_TIME_LIMIT + 1.0):
+        raise ValueError(f"{traj}: t runs from {t[0]:g} to {t[-1]:g} s, expected times within 0 .. "
+                         f"{MAX_TIME_LIMIT:g} s (the longest time_limit)")
+    result = _read_result(run / RESULT_FILE)
     return RunData(path=run, world=world, t=t, q=q, q_des=q_des, tip_des=tip_des, result=result, sensed=sensed)
 
 

@@ -218,6 +218,12 @@ def run_trial(
     _check_choice("planner", planner, planner_names())
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise TrialInputError(f"seed must be a non-negative integer, got {seed!r}")
+    if config is not None and not isinstance(config, TrialConfig):
+        raise TrialInputError(f"config must be a TrialConfig (or None for the defaults), got {config!r:.80}")
+    if not isinstance(render, bool):
+        raise TrialInputError(f"render must be true or false, got {render!r:.40}")
+    if out_dir is not None and (not isinstance(out_dir, (str, os.PathLike)) or not str(out_dir).strip()):
+        raise TrialInputError(f"out_dir must be a folder path (or None to write nothing), got {out_dir!r:.80}")
     cfg = config or TrialConfig()
     if isinstance(world, dict):
         world = world_from_dict(world)

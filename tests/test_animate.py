@@ -208,8 +208,62 @@ def test_load_run_names_what_is_wrong(tmp_path):
         with pytest.raises(ValueError, match=words):
             load_run(run_dir, tmp_path / "w.json")
     (run_dir / "trajectory.npz").write_bytes(b"not a zip")
-    with pytest.raises(ValueError, match="not a readable .npz"):
+    with pytest.raises(ValueError, match="not a .npz archive"):
         load_run(run_dir, tmp_path / "w.json")
+
+
+def _npz_with_header(path, key: str, shape: tuple, arrays: dict) -> None:
+    """An .npz whose member ``key`` has a header claiming ``shape`` (and a few bytes of data)."""
+    import io
+    import zipfile
+
+    with zipfile.ZipFile(path, "w") as z:
+        for name, a in arrays.items():
+            buf = io.BytesIO()
+            np.lib.format.write_array(buf, a)
+            z.writestr(f"{name}.npy", buf.getvalue())
+        buf = io.BytesIO()
+        np.lib.format.write_array_header_1_0(buf, {"descr": "<f8", "fortran_order": False, "shape": shape})
+        z.writestr(f"{key}.npy", buf.getvalue() + b"\0" * 64)
+
+
+def test_a_hostile_or_damaged_run_folder_is_refused_naming_the_file(tmp_path):
+    """An adversarial review's cases: each was an internal error, a memory blow-up or a wrong picture."""
+    run_dir = synthetic_run(tmp_path / "run", n=5)
+    world = run_dir / "world.json"
+    good = dict(np.load(run_dir / "trajectory.npz"))
+    traj = run_dir / "trajectory.npz"
+    rest = {k: v for k, v in good.items() if k != "t"}
+    _npz_with_header(traj, "t", (2**40,), rest)  # 8 TiB claimed: refused from the header
+    with pytest.raises(ValueError, match=r"'t' claims shape \(1099511627776,\)"):
+        load_run(run_dir, world)
+    _npz_with_header(traj, "sensed", (5, 10**7, 3), good)
+    with pytest.raises(ValueError, match="'sensed' claims shape"):
+        load_run(run_dir, world)
+    np.save(tmp_path / "plain.npy", good["t"])  # a .npy saved under the .npz name
+    traj.write_bytes((tmp_path / "plain.npy").read_bytes())
+    with pytest.raises(ValueError, match="not a .npz archive"):
+        load_run(run_dir, world)
+    for change, words in [({"t": good["t"] - 100.0}, "t runs from -100"),
+                          ({"t": good["t"] + 5000.0}, "expected times within 0 .. 3600 s"),
+                          ({"t": good["t"] * 1e12}, "'t' holds values beyond"),
+                          ({"q": good["q"] * 1e300}, "'q' holds values beyond"),
+                          ({"tip_des": good["tip_des"] + 1e6}, "'tip_des' holds values beyond"),
+                          ({"q": good["q"] + 0j}, "'q' holds complex128 values, expected real numbers"),
+                          ({"q_des": good["q_des"] > 0}, "'q_des' holds bool values")]:
+        np.savez(traj, **{**good, **change})
+        with pytest.raises(ValueError, match=words):
+            load_run(run_dir, world)
+    np.savez(traj, **good, extra=np.zeros(10))  # an array it does not use is never read
+    assert load_run(run_dir, world).t.shape == (5,)
+    result = run_dir / "result.json"
+    for text, words in [('{"success": "false", "reason": "collision"}', "'success' is 'false'"),
+                        ('{"success": true, "reason": "collision"}', "'success' is true but 'reason'"),
+                        ('{"metrics": "x"}', "'metrics' is 'x'"), ('{"goals_reached": "x"}', "'goals_reached'"),
+                        ("[" * 100000, "nested too deeply")]:
+        result.write_text(text)
+        with pytest.raises(ValueError, match=words):
+            load_run(run_dir, world)
 
 
 def test_animation_config_checks_its_fields():
@@ -250,3 +304,13 @@ def test_robot_rectangle_render_equals_the_full_render(contact_trial):
             assert differ.sum() <= 5, (i, differ.sum())
     finally:
         replay.close()
+
+
+def test_an_animation_into_a_folder_is_refused_before_drawing(tmp_path, monkeypatch):
+    import navstack.animate as animate
+
+    run_dir = synthetic_run(tmp_path / "run", n=5)
+    (tmp_path / "out.gif").mkdir()
+    monkeypatch.setattr(animate, "write_animation", lambda *a, **k: (_ for _ in ()).throw(AssertionError("drew")))
+    with pytest.raises(ValueError, match="out.gif is a folder"):
+        animate.animate_stats(run_dir, tmp_path / "out.gif")

@@ -85,7 +85,8 @@ def test_a_reader_that_closes_the_pipe_ends_the_command_quietly(tmp_path):
 
 @pytest.mark.parametrize("argv", [["run", "worlds/paper_truss.json", "--out", ""], ["demo", "--out", " "],
                                   ["trials", "--generate", "truss", "--out", ""],
-                                  ["trials", "--worlds", "", "--out", "x"]])
+                                  ["trials", "--worlds", "", "--out", "x"], ["generate", "truss", "--out", ""],
+                                  ["urdf", "--out", ""], ["animate", "x", "--out", ""]])
 def test_an_empty_output_or_worlds_path_is_an_argument_error(argv, capsys):
     """An empty --out wrote the run's files into the current folder without a word."""
     with pytest.raises(SystemExit) as ei:
@@ -118,3 +119,26 @@ def test_control_characters_in_a_world_name_do_not_reach_the_terminal(tmp_path, 
     out = capsys.readouterr().out
     assert "\x1b" not in out and "\x07" not in out
     assert out.count("w\\x1b[2J\\x07x") == 2
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["view", "x", "--port", "70000"], "expected a port number from 0 (any free one) to 65535"),
+    (["view", "x", "--port", "-1"], "expected a port number from 0 (any free one) to 65535"),
+    (["view", "x", "--host", ""], "expected an address to listen on"),
+    (["view", "x", "--host", "999.1.1.1"], "cannot listen on '999.1.1.1'"),
+])
+def test_view_refuses_a_port_or_host_it_cannot_serve_on(argv, words, capsys):
+    """Each of these hung (the server thread failed, the command slept on), or, for '', listened on every
+    interface while printing 127.0.0.1."""
+    with pytest.raises(SystemExit) as ei:
+        main(argv)
+    assert ei.value.code == 2 and words in capsys.readouterr().err
+
+
+def test_demo_checks_every_output_folder_before_simulating(tmp_path, capsys, monkeypatch):
+    import navstack.trial
+
+    monkeypatch.setattr(navstack.trial, "_Simulation", lambda *a, **k: (_ for _ in ()).throw(AssertionError("ran")))
+    (tmp_path / "tip-only").write_text("a file where the second controller's folder goes")
+    assert main(["demo", "--out", str(tmp_path), "--no-animate"]) == 2
+    assert "tip-only" in capsys.readouterr().err and not (tmp_path / "slither" / "result.json").exists()

@@ -152,6 +152,11 @@ def test_cli_run_writes_outputs_and_exit_codes(tmp_path, capsys):
         ({"controller": "snake"}, "controller"),
         ({"planner": "magic"}, "planner"),
         ({"seed": -1}, "seed"),
+        ({"config": {}}, "config must be a TrialConfig"),  # was silently the defaults
+        ({"config": {"scripted_speed": 5}}, "config must be a TrialConfig"),  # was an AttributeError
+        ({"render": "no"}, "render must be true or false"),  # 'no' rendered
+        ({"out_dir": ""}, "out_dir must be a folder path"),  # meant the current folder
+        ({"out_dir": 3}, "out_dir must be a folder path"),  # was a TypeError
     ],
 )
 def test_bad_trial_arguments(kwargs, message):
