@@ -100,10 +100,13 @@ def point_jacobians_into(F, prismatic, point_frames, out):  # pragma: no cover
 def check_q(q: ArrayLike, n: int, name: str = "q") -> NDArray[np.float64]:
     """Return ``q`` as a float64 vector of length ``n``, or raise ``ValueError``.
 
-    The message names the problem: a wrong length, or the first non-finite
-    entry (with its 1-based joint number).
+    The message names the problem: values that are not real numbers (strings, booleans, complex), a wrong
+    length, or the first non-finite entry (with its 1-based joint number).
     """
-    arr = np.asarray(q, dtype=np.float64)
+    raw = np.asarray(q)
+    if raw.dtype.kind not in "fiu":  # "0" strings, True, 1+0j converted silently before
+        raise ValueError(f"{name} must hold real numbers, got {raw.dtype} values")
+    arr = raw.astype(np.float64, copy=False)
     if arr.shape != (n,):
         raise ValueError(f"{name} must be a vector of {n} joint values, got shape {arr.shape}")
     bad = ~np.isfinite(arr)

@@ -1163,6 +1163,8 @@ def load_world(path: str | os.PathLike[str], *, allow_mesh_outside: bool = False
         WorldError: unreadable file, not a regular file, too large, invalid JSON (with line/column), or the
             first invalid field (with its JSON path); the message always names the file.
     """
+    if not isinstance(path, (str, os.PathLike)) or "\x00" in os.fspath(path):
+        raise TypeError(f"load_world: path must be a file path (str or os.PathLike, no NUL), got {path!r:.80}")
     ctx = _Ctx(path, None)
     if isinstance(max_bytes, bool) or not isinstance(max_bytes, int) or max_bytes < 1:
         raise ValueError(f"load_world: max_bytes must be a positive integer, got {max_bytes!r}")

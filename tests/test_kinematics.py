@@ -125,6 +125,9 @@ def test_point_jacobian_buffer_mode_is_overwritten_not_shared_with_copies():
         (np.zeros((20, 1)), "20 joint values"),
         (np.r_[np.zeros(5), np.nan, np.zeros(14)], r"q\[5\] \(joint 6\) is nan"),
         (np.r_[np.zeros(19), np.inf], r"q\[19\] \(joint 20\) is inf"),
+        (["0"] * 20, "must hold real numbers, got <U1"),  # strings, booleans and complex values
+        ([True] * 20, "must hold real numbers, got bool"),  # converted silently before
+        (np.zeros(20, dtype=complex), "must hold real numbers, got complex128"),
     ],
 )
 def test_bad_joint_vectors_raise(q, message):

@@ -697,3 +697,11 @@ def test_a_q0_within_the_limit_slack_is_moved_onto_the_limit_and_runs(valid, spe
     w = load_world(spec_file)
     assert w.robot.q0[joint] == jpl.UPPER[joint]
     assert main(["run", str(spec_file), "--out", str(tmp_path / "out"), "--planner", "scripted"]) == 0
+
+
+@pytest.mark.parametrize("path", [b"/tmp/world.json", "x\x00y.json", None, 3])
+def test_load_world_names_a_path_argument_of_the_wrong_kind(path):
+    """bytes, a NUL, None, a number: one clear TypeError (they were TypeError, ValueError or WorldError
+    depending on whether the bytes path existed)."""
+    with pytest.raises(TypeError, match="load_world: path must be a file path"):
+        load_world(path)
