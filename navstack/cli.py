@@ -95,8 +95,22 @@ def _animate_and_report(run_dir, out=None, config=None, world=None, indent: str 
           f"(x{c.speed:g} real time), animated in {s.seconds:.1f} s")
 
 
+def _given_world(args: argparse.Namespace, prefix: str):
+    """``--world`` of animate / view loaded with the world options (None without it), with a warning on
+    stderr where the run folder says its trial ran another world (:func:`navstack.rundir.other_world`)."""
+    from navstack.rundir import other_world
+
+    if args.world is None:
+        return None
+    world = _load(args, args.world)
+    why = other_world(args.run_dir, world)
+    if why:
+        print(f"{prefix}: warning: {why}", file=sys.stderr)
+    return world
+
+
 def _animate(args: argparse.Namespace) -> int:
-    _animate_and_report(args.run_dir, args.out, _animation_config(args), args.world)
+    _animate_and_report(args.run_dir, args.out, _animation_config(args), _given_world(args, "navstack animate"))
     return EXIT_OK
 
 
@@ -104,7 +118,7 @@ def _view(args: argparse.Namespace) -> int:
     from navstack.viewer import serve
 
     try:
-        return serve(args.run_dir, host=args.host, port=args.port, world=args.world)
+        return serve(args.run_dir, host=args.host, port=args.port, world=_given_world(args, "navstack view"))
     except ImportError as exc:  # the optional extra is missing: say how to get it
         print(f"navstack view: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -370,6 +384,7 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--eye", type=float, nargs=3, metavar=("X", "Y", "Z"), help="camera position (world, m)")
     a.add_argument("--target", type=float, nargs=3, metavar=("X", "Y", "Z"), help="point looked at (world, m)")
     a.add_argument("--world", help="the world file, for run folders without world.json")
+    _add_world_options(a)
     a.set_defaults(func=_animate)
 
     v = sub.add_parser("view", help="3D viewer of a run folder in the browser (needs: pip install 'navstack[viewer]')")
@@ -378,6 +393,7 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--host", type=_host, default="127.0.0.1",
                    help="address to listen on (default 127.0.0.1: this machine only)")
     v.add_argument("--world", help="the world file, for run folders without world.json")
+    _add_world_options(v)
     v.set_defaults(func=_view)
 
 

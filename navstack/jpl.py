@@ -82,6 +82,10 @@ pointing along the lathe axis z0 (so the lathe bed does the insertion)."""
 
 SERPENTINE_RADIUS = 0.025
 ARM_RADIUS = 0.06
+MIN_ROBOT_RADIUS = 0.01
+"""Metres: the smallest capsule radius of a link (world files' ``serpentine_radius`` / ``arm_radius``, URDF)."""
+MAX_ROBOT_RADIUS = 0.5
+"""Metres: the largest capsule radius of a link."""
 
 
 def jpl_serpentine() -> Chain:

@@ -98,12 +98,19 @@ def point_jacobians_into(F, prismatic, point_frames, out):  # pragma: no cover
 
 
 def check_q(q: ArrayLike, n: int, name: str = "q") -> NDArray[np.float64]:
-    """Return ``q`` as a float64 vector of length ``n``, or raise ``ValueError``.
+    """Return ``q`` as a float64 vector of length ``n``, or raise ``ValueError`` (``TypeError`` for objects
+    that are not numbers at all).
 
     The message names the problem: values that are not real numbers (strings, booleans, complex), a wrong
     length, or the first non-finite entry (with its 1-based joint number).
     """
-    raw = np.asarray(q)
+    try:
+        raw = np.asarray(q)
+    except ValueError:  # a ragged sequence
+        raise ValueError(f"{name} must be a vector of {n} joint values, got a ragged sequence") from None
+    if raw.dtype.kind == "O":  # not numbers at all (a World, None entries): the wrong kind of argument
+        what = type(q).__name__ if raw.ndim == 0 else "entries that are not numbers"
+        raise TypeError(f"{name} must hold real numbers, got {what}")
     if raw.dtype.kind not in "fiu":  # "0" strings, True, 1+0j converted silently before
         raise ValueError(f"{name} must hold real numbers, got {raw.dtype} values")
     arr = raw.astype(np.float64, copy=False)

@@ -277,4 +277,41 @@ def load_run(run_dir: str | os.PathLike[str], world: str | os.PathLike[str] | Wo
     return RunData(path=run, world=world, t=t, q=q, q_des=q_des, tip_des=tip_des, result=result, sensed=sensed)
 
 
-__all__ = ["RunData", "WorldError", "load_run", "write_run_world"]
+def _content(world: World) -> dict[str, Any]:
+    """``world`` as data with each mesh named by its file's SHA-256 instead of its path (a copy in a run
+    folder and the original compare equal)."""
+    d = world.to_dict()
+    for o, od in zip(world.obstacles, d["obstacles"], strict=True):
+        if isinstance(o, Mesh):
+            try:
+                od["path"] = hashlib.sha256(o.path.read_bytes()).hexdigest()
+            except OSError:
+                pass  # unreadable: compared by path
+    return d
+
+
+def other_world(run_dir: str | os.PathLike[str], world: World) -> str | None:
+    """Why ``world`` (given for the run folder ``run_dir``) may not be the world its trial ran: the
+    folder's ``world.json`` holds a different world, or its ``result.json`` names another one.  None when
+    neither says so (or neither can be read: :func:`load_run` reports that)."""
+    run = Path(run_dir)
+    wfile = run / WORLD_FILE
+    if wfile.is_file():
+        try:
+            ran = load_world(wfile)
+        except (WorldError, OSError):
+            ran = None
+        if ran is not None and _content(ran) != _content(world):
+            return (f"{wfile} (the world the trial ran) is not the world given ({world.name!r}); the "
+                    f"given world is drawn")
+    try:
+        result = _read_result(run / RESULT_FILE)
+    except (ValueError, OSError):
+        result = None
+    name = result.get("world") if result else None
+    if isinstance(name, str) and name != world.name:
+        return f"{run / RESULT_FILE} says the trial ran the world {name!r}, not the world given ({world.name!r})"
+    return None
+
+
+__all__ = ["RunData", "WorldError", "load_run", "other_world", "write_run_world"]

@@ -49,6 +49,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
+from navstack.jpl import MAX_ROBOT_RADIUS, MIN_ROBOT_RADIUS
+
 if TYPE_CHECKING:
     from navstack.kinematics import Chain
 
@@ -60,6 +62,10 @@ ARM_LINK_INERTIA = 0.05
 """kg m^2, each principal moment of an arm link, as :data:`navstack.sim.body.ARM_LINK_INERTIA`."""
 SERPENTINE_LINK_INERTIA = 0.002
 """kg m^2, each principal moment of a serpentine link, as :data:`navstack.sim.body.SERPENTINE_LINK_INERTIA`."""
+
+
+MAX_URDF_VALUE = 1.0e6
+"""The largest mass [kg], inertia [kg m^2], effort [N, N m] or velocity limit a URDF is written with."""
 
 
 @dataclass(frozen=True)
@@ -94,8 +100,11 @@ class UrdfOptions:
         for key in ("serpentine_radius", "arm_radius", "arm_mass", "serpentine_mass", "arm_inertia",
                     "serpentine_inertia", "effort_prismatic", "effort_revolute", "velocity"):
             v = getattr(self, key)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and v > 0):
-                raise ValueError(f"UrdfOptions.{key} must be a positive finite number, got {v!r}")
+            lo, hi = (MIN_ROBOT_RADIUS, MAX_ROBOT_RADIUS) if key.endswith("radius") else (0.0, MAX_URDF_VALUE)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (lo <= v <= hi and v > 0):
+                what = (f"from {lo:g} to {hi:g} m (as in world files)" if key.endswith("radius")
+                        else f"positive, at most {hi:g}")
+                raise ValueError(f"UrdfOptions.{key} must be a number {what}, got {v!r}")
         if isinstance(self.first_serpentine_frame, bool) or not isinstance(self.first_serpentine_frame, int):
             raise ValueError(f"UrdfOptions.first_serpentine_frame must be an int, got {self.first_serpentine_frame!r}")
 

@@ -131,9 +131,9 @@ MAX_LENGTH = 1000.0
 """Metres: the largest obstacle size (radius, half-extent, oscillation amplitude, scaled mesh extent)."""
 MIN_CYLINDER_LENGTH = MIN_LENGTH
 """Metres: a cylinder's ``p0`` and ``p1`` must be at least this far apart."""
-MIN_ROBOT_RADIUS = 0.01
+MIN_ROBOT_RADIUS = jpl.MIN_ROBOT_RADIUS
 """Metres: the smallest ``serpentine_radius`` / ``arm_radius``."""
-MAX_ROBOT_RADIUS = 0.5
+MAX_ROBOT_RADIUS = jpl.MAX_ROBOT_RADIUS
 """Metres: the largest ``serpentine_radius`` / ``arm_radius``."""
 MIN_TOLERANCE = 1e-4
 """Metres: the smallest goal ``tolerance``."""
@@ -1124,8 +1124,8 @@ def _read_text(ctx: _Ctx, path: str | os.PathLike[str], max_bytes: int) -> str:
         if not stat.S_ISREG(st.st_mode):
             raise ctx.error("", f"expected a regular file, got {_file_kind(st.st_mode)}")
         if st.st_size > max_bytes:
-            raise ctx.error("", f"the file is {st.st_size / 2**20:.1f} MiB, more than the {max_bytes / 2**20:g} MiB "
-                                f"a world file may have (raise the limit with --max-world-mb / max_bytes)")
+            raise ctx.error("", f"the file is {_mib(st.st_size)}, more than the {_mib(max_bytes)} a world file "
+                                f"may have (raise the limit with --max-world-mb / max_bytes)")
         with os.fdopen(os.dup(fd), "rb") as f:
             raw = f.read(max_bytes + 1)
     except OSError as e:
@@ -1133,7 +1133,7 @@ def _read_text(ctx: _Ctx, path: str | os.PathLike[str], max_bytes: int) -> str:
     finally:
         os.close(fd)
     if len(raw) > max_bytes:  # it grew after fstat
-        raise ctx.error("", f"the file is larger than the {max_bytes / 2**20:g} MiB a world file may have")
+        raise ctx.error("", f"the file is larger than the {_mib(max_bytes)} a world file may have")
     try:
         return raw.decode("utf-8-sig")
     except UnicodeDecodeError as e:
@@ -1144,6 +1144,12 @@ def _file_kind(mode: int) -> str:
     kinds = [(stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
              (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket")]
     return next((name for test, name in kinds if test(mode)), "not a regular file")
+
+
+def _mib(n: int) -> str:
+    """``n`` bytes for a message: in MiB to 3 significant digits, and in bytes below 1 MiB (a 1.5 kB file
+    read '0.0 MiB')."""
+    return f"{n / 2**20:.3g} MiB" if n >= 2**20 else f"{n:,} bytes"
 
 
 def load_world(path: str | os.PathLike[str], *, allow_mesh_outside: bool = False,

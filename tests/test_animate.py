@@ -15,7 +15,7 @@ from navstack.animate import AnimationConfig, Replay, animate_run, choose_view, 
 from navstack.cli import main
 from navstack.jpl import jpl_serpentine
 from navstack.render import CONTACT_RGBA
-from navstack.rundir import load_run, write_run_world
+from navstack.rundir import load_run, other_world, write_run_world
 from navstack.trial import run_trial
 from navstack.truss import PAPER_BASE_RPY
 from navstack.world import Mesh, world_from_dict
@@ -189,6 +189,63 @@ def test_cli_animate_and_its_errors(tmp_path, capsys):
     ]:
         assert main(argv) == 2, argv
         assert words in capsys.readouterr().err, argv
+
+
+def _mesh_world(folder: Path, mesh_path: str, block: Path) -> Path:
+    """``straight_world`` without contact plus one mesh obstacle at ``mesh_path`` (``block`` written there)."""
+    import trimesh
+
+    block.parent.mkdir(parents=True, exist_ok=True)
+    trimesh.creation.box(extents=[0.1, 0.1, 0.1]).export(block)
+    wd = straight_world(contact=False)
+    wd["obstacles"].append({"type": "mesh", "path": mesh_path, "position": [0.0, 2.0, 0.5]})
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "w.json").write_text(json.dumps(wd))
+    return folder / "w.json"
+
+
+def test_a_given_world_that_is_not_the_runs_is_named(tmp_path):
+    """--world drew whatever world it was given without a word, though world.json and result.json say
+    which world the trial ran; a copy of the same world (its mesh elsewhere, the same bytes) is no warning."""
+    from navstack.world import load_world
+
+    run_dir = synthetic_run(tmp_path / "run", n=5, contact=True)
+    ran = load_run(run_dir).world
+    assert other_world(run_dir, ran) is None
+    without_contact = world_from_dict(straight_world(contact=False))  # the same name, one sphere fewer
+    assert "is not the world given" in other_world(run_dir, without_contact)
+    (run_dir / "world.json").unlink()  # an older folder: only result.json names the world
+    assert other_world(run_dir, without_contact) is None
+    renamed = world_from_dict({**straight_world(contact=True), "name": "other"})
+    assert "says the trial ran the world 'straight', not the world given ('other')" in other_world(run_dir, renamed)
+    assert other_world(tmp_path / "nope", renamed) is None  # load_run names the missing folder
+
+    wfile = _mesh_world(tmp_path / "src", "parts/block.stl", tmp_path / "src" / "parts" / "block.stl")
+    mesh_run = tmp_path / "mesh_run"
+    write_run_world(load_world(wfile), mesh_run)
+    assert other_world(mesh_run, load_world(wfile)) is None  # the copy in meshes/ has the same bytes
+    (tmp_path / "src" / "parts" / "block.stl").write_bytes(b"solid x\nendsolid x\n")
+    assert other_world(mesh_run, load_world(mesh_run / "world.json")) is None
+    moved = _mesh_world(tmp_path / "src2", "parts/block.stl", tmp_path / "src2" / "parts" / "block.stl")
+    import trimesh
+
+    trimesh.creation.box(extents=[0.2, 0.1, 0.1]).export(tmp_path / "src2" / "parts" / "block.stl")
+    assert "is not the world given" in other_world(mesh_run, load_world(moved))
+
+
+def test_animate_and_view_take_the_world_options_and_warn_of_another_world(tmp_path, capsys):
+    """The mesh-path refusal told animate and view users to pass --allow-mesh-outside, which they lacked."""
+    run_dir = synthetic_run(tmp_path / "run", n=3, contact=False)
+    wfile = _mesh_world(tmp_path / "w", "../outside/block.stl", tmp_path / "outside" / "block.stl")
+    for command in ("animate", "view"):
+        assert main([command, str(run_dir), "--world", str(wfile)]) == 2
+        assert "pass --allow-mesh-outside" in capsys.readouterr().err
+        assert main([command, str(run_dir), "--world", str(wfile), "--max-world-mb", "1e-4"]) == 2
+        assert "bytes, more than the 104 bytes a world file may have" in capsys.readouterr().err
+    assert main(["animate", str(run_dir), "--world", str(wfile), "--allow-mesh-outside", "--size", "320x192",
+                 "--fps", "5", "--out", str(tmp_path / "a.gif")]) == 0
+    err = capsys.readouterr().err
+    assert "navstack animate: warning: " in err and "is not the world given ('straight')" in err
 
 
 def test_load_run_names_what_is_wrong(tmp_path):

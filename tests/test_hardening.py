@@ -232,7 +232,7 @@ def test_world_size_and_kind_limits_on_the_command_line(tmp_path, capsys):
         fh.truncate(200 * 1024 * 1024)  # sparse: refused from its size, never read
     assert main(["check-world", str(big), "/dev/zero", str(tmp_path)]) == 2
     err = capsys.readouterr().err
-    assert "big.json: (top level): the file is 200.0 MiB, more than the 64 MiB a world file may have" in err
+    assert "big.json: (top level): the file is 200 MiB, more than the 64 MiB a world file may have" in err
     assert "/dev/zero: (top level): expected a regular file, got a character device" in err
     assert "expected a regular file, got a directory" in err
     small = write(tmp_path / "small.json", world_data())

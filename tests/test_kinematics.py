@@ -128,6 +128,7 @@ def test_point_jacobian_buffer_mode_is_overwritten_not_shared_with_copies():
         (["0"] * 20, "must hold real numbers, got <U1"),  # strings, booleans and complex values
         ([True] * 20, "must hold real numbers, got bool"),  # converted silently before
         (np.zeros(20, dtype=complex), "must hold real numbers, got complex128"),
+        ([0.0] * 19 + [[0.0, 1.0]], "20 joint values, got a ragged sequence"),  # numpy's own message before
     ],
 )
 def test_bad_joint_vectors_raise(q, message):
@@ -135,6 +136,14 @@ def test_bad_joint_vectors_raise(q, message):
         ROBOT.frames(q)
     with pytest.raises(ValueError, match=message):
         ROBOT.points_and_jacobians(q)
+
+
+@pytest.mark.parametrize("q, message", [(object(), "got object"), ([None] * 20, "got entries that are not numbers"),
+                                        ([None] + [0.0] * 19, "got entries that are not numbers")])
+def test_joint_vectors_of_objects_are_a_type_error(q, message):
+    """A World passed where q0 goes must stay a TypeError naming it (tests/test_isolation.py)."""
+    with pytest.raises(TypeError, match=message):
+        ROBOT.frames(q)
 
 
 def test_table_units_are_metres():

@@ -241,6 +241,12 @@ def test_options_change_radius_and_validate(chain):
         UrdfOptions(serpentine_radius=-1.0)
     with pytest.raises(ValueError, match="velocity"):
         UrdfOptions(velocity=float("nan"))
+    # radii as in world files (a 1e300 m capsule was written; PyBullet cannot load it sensibly)
+    for key, v in [("arm_radius", 1e300), ("serpentine_radius", 0.6), ("serpentine_radius", 0.005),
+                   ("arm_mass", 1e300), ("velocity", float("inf")), ("arm_radius", True)]:
+        with pytest.raises(ValueError, match=key):
+            UrdfOptions(**{key: v})
+    assert UrdfOptions(arm_radius=0.5, serpentine_radius=0.01, arm_mass=1e6).arm_radius == 0.5
 
 
 def test_cli_urdf_writes_file_and_stdout(tmp_path, capsys, chain):
@@ -253,3 +259,6 @@ def test_cli_urdf_writes_file_and_stdout(tmp_path, capsys, chain):
     assert main(["urdf"]) == 0
     assert capsys.readouterr().out == chain.to_urdf()
     assert main(["urdf", "--out", str(tmp_path / "missing" / "x.urdf")]) == 2
+    capsys.readouterr()
+    assert main(["urdf", "--serpentine-radius", "1e300"]) == 2
+    assert "serpentine_radius must be a number from 0.01 to 0.5 m" in capsys.readouterr().err
