@@ -145,6 +145,20 @@ class Trajectory:
         os.replace(tmp, path)
 
 
+def steps_within(time_limit: float, dt: float) -> int:
+    """The most control steps of ``dt`` seconds within ``time_limit`` [s], counting a step that ends within
+    1e-9 periods past it (0.7 s at 1/30 s is 20.999999999999996 periods: 21 steps)."""
+    return int(np.floor(time_limit / dt + 1e-9))
+
+
+def sim_time(steps: int, dt: float, time_limit: float) -> float:
+    """The simulated time after ``steps`` control periods of ``dt`` seconds, as recorded (``result.json``'s
+    ``sim_time``, ``trajectory.npz``'s ``t``): rounded to 1e-9 s (21 periods of 1/30 s read 0.7, not
+    0.7000000000000001), and never above ``time_limit``: a step :func:`steps_within` counts though it ends
+    a hair past the limit (at most 1e-9 periods) reads as the limit itself."""
+    return min(round(steps * dt, 9), time_limit)
+
+
 def _write_json(path: Path, data: dict[str, Any]) -> None:
     tmp = path.with_name(path.name + ".tmp")
     tmp.write_text(json.dumps(data, indent=2) + "\n")
@@ -520,7 +534,7 @@ class _Simulation:
         q, _ = self.body.joint_state()
         tip, F = self._measure(q)
         self._record(q, self.q0)
-        limit_steps = int(np.floor(self.world.time_limit / self.dt + 1e-9))  # never beyond time_limit
+        limit_steps = steps_within(self.world.time_limit, self.dt)  # never beyond time_limit
         pinned_steps = int(np.ceil(self.cfg.joint_limit_time / self.dt))
         pinned = 0
         while True:
@@ -592,7 +606,7 @@ class _Simulation:
 
     def _record(self, q: np.ndarray, q_des: np.ndarray) -> None:
         tr = self.trajectory
-        tr.t.append(self.steps * self.dt)
+        tr.t.append(sim_time(self.steps, self.dt, self.world.time_limit))
         tr.q.append(np.array(q, dtype=np.float64))
         tr.q_des.append(np.array(q_des, dtype=np.float64))
         tr.tip_des.append(np.array(self.tip_des, dtype=np.float64))
@@ -612,7 +626,7 @@ class _Simulation:
             success=reason == "reached",
             reason=reason,
             goals_reached=int(self.goal_index),
-            sim_time=round(self.steps * self.dt, 9),
+            sim_time=sim_time(self.steps, self.dt, self.world.time_limit),
             steps=int(self.steps),
             wall_time=round(wall, 3),
             metrics={

@@ -402,3 +402,16 @@ def test_reach_bound_is_the_sum_of_the_figure_2_link_offsets():
         else:
             with pytest.raises(ValueError, match=r"goals\[0\]\.position: .* beyond the robot's reach \(2\.77 m\)"):
                 check_reach(w)
+
+
+@pytest.mark.parametrize("time_limit", [0.3 - 2e-11, 0.3, 0.7, 0.7 - 3e-11, 0.1 + 0.2])
+def test_the_recorded_times_never_pass_the_time_limit(hold_planner, tmp_path, time_limit):
+    """A time limit a hair below a whole number of control periods ran one step more: sim_time (rounded to
+    1e-9 s) and the trajectory's last t came out above time_limit, and an independent check of
+    ``sim_time <= time_limit`` would fail the trial's own record."""
+    r = run_trial(_world(time_limit=time_limit), planner="scripted", out_dir=tmp_path)
+    assert r.reason == "timeout"
+    t = np.load(tmp_path / "trajectory.npz")["t"]
+    assert r.sim_time <= time_limit and t[-1] <= time_limit and t[-1] == r.sim_time
+    assert r.steps * DT <= time_limit + 1e-9  # and not a step fewer than the limit allows
+    assert (r.steps + 1) * DT > time_limit
