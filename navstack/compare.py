@@ -234,9 +234,25 @@ def render_markdown(rows: Sequence[Row], dir_a: str, dir_b: str, records_a: Sequ
     for name, left in (("A", sorted(methods_a - used_a)), ("B", sorted(methods_b - used_b))):
         if left:
             lines += ["", f"Only in {name} (not compared): " + ", ".join(method_label(m) for m in left)]
+    lines += _one_sided_families(rows, records_a, records_b)
     if plot:
         lines += ["", f"![Differences B - A with 95 % intervals]({plot})"]
     return "\n".join(lines) + "\n"
+
+
+def _one_sided_families(rows: Sequence[Row], records_a: Sequence[Mapping[str, Any]],
+                        records_b: Sequence[Mapping[str, Any]]) -> list[str]:
+    """Lines naming, per compared method, the families only one sweep ran: they have no row of their own but
+    are counted in the method's pooled row."""
+    lines = []
+    for ma, mb in dict.fromkeys((r.method_a, r.method_b) for r in rows):
+        fa = {family_label(r) for r in records_a if _method(r) == ma}
+        fb = {family_label(r) for r in records_b if _method(r) == mb}
+        for name, only in (("A", sorted(fa - fb)), ("B", sorted(fb - fa))):
+            if only:
+                lines += ["", f"Families only in {name} for {method_label(ma)} (no row of their own; counted in "
+                              f"{ALL_FAMILIES}): " + ", ".join(only)]
+    return lines
 
 
 def write_plot(rows: Sequence[Row], path: Path) -> Path:

@@ -283,3 +283,18 @@ def test_a_family_named_all_is_not_the_pooled_row():
     a = {("(all)", i): True for i in range(4)} | {("truss", i): False for i in range(4)}
     rows = compare.compare(sweep_records(a), sweep_records(a))
     assert [(r.family, r.n_a, r.k_a) for r in rows] == [('"(all)"', 4, 4), ("truss", 4, 0), ("(all)", 8, 4)]
+
+
+def test_a_family_only_one_sweep_ran_is_named_under_the_table():
+    """It has no row (nothing to compare it with) but is counted in the pooled row: the report said neither
+    (an independent review's finding)."""
+    a = sweep_records({("truss", i): True for i in range(4)} | {("sphere-field", i): False for i in range(3)})
+    b = sweep_records({("truss", i): i > 0 for i in range(4)} | {("pipe-rack", i): True for i in range(2)})
+    rows = compare.compare(a, b)
+    assert [(r.family, r.n_a, r.n_b) for r in rows] == [("truss", 4, 4), ("(all)", 7, 6)]
+    text = compare.render_markdown(rows, "A", "B", a, b)
+    assert ("Families only in A for slither/field (no row of their own; counted in (all)): sphere-field\n"
+            in text)
+    assert "Families only in B for slither/field (no row of their own; counted in (all)): pipe-rack\n" in text
+    same = compare.render_markdown(compare.compare(a, a), "A", "A", a, a)
+    assert "Families only in" not in same

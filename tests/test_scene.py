@@ -221,6 +221,78 @@ def test_mesh_cube(client, tmp_path):
     assert scene.in_contact(probe)
 
 
+def _capsule_probe(c, a, b, radius: float) -> int:
+    """A GEOM_CAPSULE body (as the robot's links are) with its segment from ``a`` to ``b`` (world, m)."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    axis = (b - a) / np.linalg.norm(b - a)
+    rot, _ = Rotation.align_vectors([axis], [[0.0, 0.0, 1.0]])
+    cs = c.createCollisionShape(p.GEOM_CAPSULE, radius=radius, height=float(np.linalg.norm(b - a)))
+    return c.createMultiBody(0.0, cs, -1, ((a + b) / 2).tolist(), rot.as_quat().tolist())
+
+
+def test_capsules_against_a_mesh_read_the_true_distance(client, tmp_path):
+    """PyBullet's default 1 mm collision margin grows a mesh's triangles outwards: every capsule-mesh distance
+    read 1.000 mm short (a sphere probe's was exact, which is all the tests above used), so a link passing
+    0.5 mm clear of a mesh was a contact, and a start 0.45 mm clear was refused.  Judge: the exact distance
+    to the box the mesh is (navstack.sim.exact_distance, itself checked against closed forms)."""
+    from navstack.sim.exact_distance import capsule_distance
+
+    stl = write_cube_stl(tmp_path / "cube.stl")
+    position, rpy, scale = np.array([0.5, 0.5, 0.5]), np.array([0.3, 0.2, -0.6]), 1.5
+    half = scale * np.array([0.4, 0.3, 0.2]) / 2
+    scene = Scene.build(client, world_of(Mesh(path=stl, position=position, rpy=rpy, scale=scale)))
+    box = Box(center=position, half_extents=half, rpy=rpy)
+    rot = Rotation.from_euler("xyz", rpy)
+    rng = np.random.default_rng(11)
+    r = 0.025
+    cases = []
+    for gap in (0.0005, -0.0005, 0.003, 0.02, 0.2):  # off the +x face, lying along it
+        c = position + rot.apply([half[0] + r + gap, 0.0, 0.0])
+        cases.append((c - rot.apply([0, 0.1, 0]), c + rot.apply([0, 0.1, 0])))
+    while len(cases) < 25:  # random capsules near the block, outside it
+        a = position + rng.uniform(-0.6, 0.6, size=3)
+        b = a + 0.2 * rng.normal(size=3) / np.linalg.norm(rng.normal(size=3))
+        if 0.0 < capsule_distance(box, a[None], b[None], np.array([r]))[0] < 0.3:
+            cases.append((a, b))
+    for a, b in cases:
+        probe = _capsule_probe(client, a, b, r)
+        client.performCollisionDetection()
+        true = float(capsule_distance(box, a[None], b[None], np.array([r]))[0])
+        assert scene.clearance(probe) == pytest.approx(true, abs=1e-6), (a, b, true)
+        assert scene.in_contact(probe) == (true <= 0.0), (a, b, true)
+        client.removeBody(probe)
+
+
+@pytest.mark.parametrize("combine", [True, False])
+def test_a_penetration_reads_the_deepest_ball_as_an_independent_check_computes_it(client, combine):
+    """A capsule through a box or a cylinder: clearance and touching give the depth of the capsule's deepest
+    ball below the surface (exact_distance, the same quantity as a positive clearance), not PyBullet's own
+    estimate, which read -97 mm where no ball of the capsule could be deeper than 90 mm (a review's
+    independent check); the sign, and so every contact count, was right either way."""
+    from navstack.sim.exact_distance import capsule_distance
+
+    slab = Box(center=[0.0, 0.0, 0.0], half_extents=[0.03, 0.4, 0.4], rpy=[0.1, -0.2, 0.3])
+    post = Cylinder(p0=[2.0, 0.0, -0.3], p1=[2.0, 0.0, 0.3], radius=0.05)
+    scene = Scene.build(client, world_of(slab, post), SceneOptions(combine_primitives=combine))
+    rng = np.random.default_rng(5)
+    r = 0.06
+    checked = 0
+    for centre, o, k in [(np.zeros(3), slab, 0), (np.array([2.0, 0.0, 0.0]), post, 1)] * 6:
+        axis = rng.normal(size=3)
+        axis /= np.linalg.norm(axis)
+        c = centre + rng.uniform(-0.05, 0.05, size=3)
+        a, b = c - 0.12 * axis, c + 0.12 * axis
+        true = float(capsule_distance(o, a[None], b[None], np.array([r]))[0])
+        assert true < -0.01
+        probe = _capsule_probe(client, a, b, r)
+        client.performCollisionDetection()
+        assert scene.clearance(probe) == pytest.approx(true, abs=1e-9)
+        assert scene.touching(probe) == [(k, pytest.approx(true, abs=1e-9))]
+        client.removeBody(probe)
+        checked += 1
+    assert checked == 12
+
+
 def test_mesh_concave_not_convex_hull(client, tmp_path):
     """An L-shaped mesh: a probe in the notch is clear of it; a convex hull would swallow it."""
     a = trimesh.creation.box(extents=[1.0, 0.2, 0.2], transform=trimesh.transformations.translation_matrix(

@@ -37,6 +37,9 @@ PyBullet limitations found (pybullet 3.2.7):
 * ``createCollisionShapeArray`` keeps at most 16 children and silently drops the rest, and
   ``createVisualShapeArray`` with more than 16 crashed the process, hence the chunking;
 * collision shapes ask for a cylinder's ``height``, visual shapes for its ``length``;
+* a triangle mesh gets a 1 mm collision margin by default, which grows its triangles outwards: every
+  distance between a link's capsule and a mesh read 1.000 mm short (measured; a sphere's was exact), so mesh
+  bodies get none (:data:`MESH_MARGIN`; rays and the start check are unaffected);
 * boxes and cylinders get a 1 mm collision margin that rounds their corners, edges and rims, so PyBullet's
   distance there reads up to 0.73 mm more than the true one (zero margin would make rays miss boxes): every
   distance PyBullet reports within that margin of 0 (or of ``exact_below``, a trial's smallest clearance so
@@ -74,6 +77,10 @@ CLEARANCE_STAGES = (0.05, 0.15, 0.4)
 BOX_SLACK = 1e-3
 """Subtracted (m) from the box lower bounds of :meth:`Scene.clearance`, so that rounding in PyBullet's
 distances or in the caller's link boxes can never make a skipped body or stage matter."""
+
+MESH_MARGIN = 0.0
+"""PyBullet's collision margin (m) for mesh bodies: none (the default 1 mm made distances to meshes read 1 mm
+short; module doc)."""
 
 SWEEP_STEP = 1e-3
 """The most (m) a moving obstacle moves between two of :meth:`Scene.swept_clearance`'s samples.  A contact it
@@ -313,7 +320,8 @@ class Scene:
 
         A compound body that touches is resolved child by child with temporary bodies, so each obstacle
         is named on its own; every primitive within :data:`MARGIN` of a link is measured exactly too, so a
-        contact PyBullet's rounded corners hide is named.  As everywhere, a robot part inside a closed mesh is
+        contact PyBullet's rounded corners hide is named, and a primitive's depth is the exact one (as in
+        :meth:`clearance`; a mesh's is PyBullet's).  As everywhere, a robot part inside a closed mesh is
         not seen (module doc; :mod:`navstack.sim.mesh_inside` tells the start check).
         """
         cl = self.client
@@ -335,8 +343,8 @@ class Scene:
                 if di <= 0.0:
                     out[i] = di
         for i, d in self._exact_distances(_link_capsules(cl, robot_id, self._capsules), self.body_ids, MARGIN):
-            if d <= 0.0:  # what PyBullet's rounding hides
-                out[i] = min(d, out.get(i, d))
+            if d <= 0.0:  # the exact depth (as in clearance), and what PyBullet's rounding hides
+                out[i] = d
         return sorted(out.items())
 
     def clearance(self, robot_id: int, max_distance: float = 1.0,
@@ -383,30 +391,40 @@ class Scene:
             bound = gaps.tolist()
         else:
             bound = [-math.inf] * len(bodies)  # no boxes: every body may be near
+        prims = self._primitives
         for d in thresholds:
-            best = d
+            best, mesh = d, d  # PyBullet's smallest distance to the primitives, to the meshes
             for b, g in zip(bodies, bound, strict=True):
                 if g < d:
                     for pt in cl.getClosestPoints(robot_id, b, d):
-                        if pt[8] < best:
-                            best = pt[8]
-            if best < d:
-                return self._sharpen(robot_id, float(best), float(exact_below), robot_capsules, bodies, bound)
+                        if len(prims[b]):
+                            best = min(best, pt[8])
+                        else:
+                            mesh = min(mesh, pt[8])
+            if min(best, mesh) < d:
+                sharp = self._sharpen(robot_id, float(best), float(exact_below), robot_capsules, bodies, bound)
+                return min(sharp, float(mesh))
         return dmax
 
     def _sharpen(self, robot_id: int, best: float, exact_below: float, capsules: Capsules | None,
                  bodies: Sequence[int], bound: Sequence[float] | None = None) -> float:
-        """``best``, PyBullet's smallest distance (m) to ``bodies``, made exact when the true one could be below
-        ``exact_below`` or 0 (``best`` below their larger + :data:`MARGIN`): the primitives of ``bodies``
-        (those whose lower ``bound`` (m) on their distance, if given, is below ``best`` + :data:`MARGIN`) are
-        measured again against the robot's ``capsules`` (read from PyBullet if None) wherever they may be
-        within ``best`` + :data:`MARGIN` (:mod:`navstack.sim.exact_distance`)."""
-        if not 0.0 < best < max(exact_below, 0.0) + MARGIN:
+        """``best``, PyBullet's smallest distance (m) to the primitives of ``bodies``, made exact when the true one
+        could be below ``exact_below`` or 0 (``best`` below their larger + :data:`MARGIN`): the primitives of
+        ``bodies`` (those whose lower ``bound`` (m) on their distance, if given, is below ``best`` +
+        :data:`MARGIN`) are measured again against the robot's ``capsules`` (read from PyBullet if None) wherever
+        they may be within ``max(best, 0)`` + :data:`MARGIN` (:mod:`navstack.sim.exact_distance`).  A penetration
+        (``best`` <= 0) is measured the same way, as the depth of the capsule's deepest ball below the
+        primitive's surface; PyBullet's own estimate (the shift that would separate the two, up to 8 mm deeper
+        in a measured case) is kept only if the exact test finds no contact, so a contact is never dropped."""
+        if not best < max(exact_below, 0.0) + MARGIN:
             return best
-        within = best + MARGIN
+        within = max(best, 0.0) + MARGIN
         near = bodies if bound is None else [b for b, g in zip(bodies, bound, strict=True) if g < within]
         caps = capsules if capsules is not None else _link_capsules(self.client, robot_id, self._capsules)
-        return min([best] + [d for _, d in self._exact_distances(caps, near, within)])
+        exact = [d for _, d in self._exact_distances(caps, near, within)]
+        if best <= 0.0 and exact and min(exact) <= 0.0:
+            return min(exact)  # a penetration's depth: the deepest ball of a capsule, not PyBullet's estimate
+        return min([best] + exact)
 
     def _exact_distances(self, capsules: Capsules, bodies: Sequence[int], within: float) -> list[tuple[int, float]]:
         """``(obstacle index, exact signed distance in m)`` of each primitive of ``bodies`` within ``within`` (m)
@@ -589,7 +607,11 @@ def _mesh_body(client: Any, m: Mesh, index: int, rgba: Sequence[float], visuals:
     vs = -1 if not visuals else _check_id(
         client.createVisualShape(p.GEOM_MESH, vertices=v, indices=idx, rgbaColor=list(rgba)),
         f"mesh visual of {m.path}")
-    return _check_id(client.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=cs, baseVisualShapeIndex=vs,
+    body = _check_id(client.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=cs, baseVisualShapeIndex=vs,
                                             basePosition=m.position.tolist(),
                                             baseOrientation=_quat_xyzw_from_rpy(m.rpy)),
                      f"mesh body of {m.path}")
+    # a triangle has no inside to hold PyBullet's default 1 mm collision margin: it grows outwards, and every
+    # capsule-mesh distance read 1 mm short (a 0.5 mm pass was a collision); rays ignore the margin
+    client.changeDynamics(body, -1, collisionMargin=MESH_MARGIN)
+    return body
