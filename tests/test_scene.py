@@ -486,6 +486,22 @@ def test_swept_clearance_sees_a_graze_between_two_control_steps(client):
     np.testing.assert_array_equal(pos, (s.center + s.motion.displacement(dt)).tolist())  # put back at t1
 
 
+def test_swept_clearance_sees_a_vibration_that_even_samples_alias(client):
+    """A review's wrong SUCCESS: a sphere 0.1 mm from the probe vibrating 0.318 mm at 990 Hz.  The even samples
+    (66 per 1/30 s, 1 mm of its travel apart) fall on its zero crossings, so every one saw 0.1 mm, and a
+    0.218 mm contact in every control step went unseen.  Closed form of the deepest: gap - amplitude."""
+    r, gap, amp, period, dt = 0.02, 0.1e-3, 0.318e-3, 1 / 990, 1 / 30
+    s = Sphere(center=[0.0, R_PROBE + r + gap, 0.0], radius=r,
+               motion=OscillateMotion(axis=[0.0, -1.0, 0.0], amplitude=amp, period=period))
+    scene, probe, at_ends = _looks_at_both_ends(client, s, dt)
+    assert min(at_ends) == pytest.approx(gap, abs=1e-9)  # both looks see it at its centre
+    swept = scene.swept_clearance(probe, 0.0, dt, min(at_ends), _probe_boxes([0.0, 0.0, 0.0]))
+    assert gap - amp - 1e-6 <= swept <= 0.0
+    near = Sphere(center=[0.0, R_PROBE + r + amp + 2e-6, 0.0], radius=r, motion=s.motion)  # 2 um clear at most
+    scene2, probe2, ends2 = _looks_at_both_ends(client, near, dt)
+    assert scene2.swept_clearance(probe2, 0.0, dt, min(ends2), _probe_boxes([0.0, 0.0, 0.0])) > 0.0
+
+
 def test_swept_clearance_asks_nothing_of_far_or_still_movers(client, monkeypatch):
     far = Sphere(center=[5.0, 0.0, 0.0], radius=0.1, motion=LinearMotion(velocity=[0.0, 0.5, 0.0]))
     waiting = Sphere(center=[0.2, 0.0, 0.0], radius=0.1, motion=LinearMotion(velocity=[-0.5, 0.0, 0.0], start=5.0))

@@ -50,7 +50,7 @@ PyBullet limitations found (pybullet 3.2.7):
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -61,6 +61,7 @@ from scipy.spatial.transform import Rotation
 
 from navstack.sim._bullet import pybullet as p
 from navstack.sim.exact_distance import MARGIN, ROW, member_distances, primitive_row
+from navstack.sim.lipschitz import sampled_minimum
 from navstack.world import Box, Cylinder, Mesh, Motion, Obstacle, Sphere, World, WorldError
 
 Capsules = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
@@ -83,9 +84,12 @@ MESH_MARGIN = 0.0
 short; module doc)."""
 
 SWEEP_STEP = 1e-3
-"""The most (m) a moving obstacle moves between two of :meth:`Scene.swept_clearance`'s samples.  A contact it
-misses is a graze shallower than r - sqrt(r^2 - (SWEEP_STEP / 2)^2): under 0.013 mm for the thinnest allowed
-link (r = 0.01 m)."""
+"""The most (m) a moving obstacle moves between two of :meth:`Scene.swept_clearance`'s even samples; where a
+contact could hide between two (the mover's speed bound, :mod:`navstack.sim.lipschitz`), more are taken."""
+
+SWEEP_RESOLUTION = 1e-6
+"""m: :meth:`Scene.swept_clearance` stops halving an interval over which the mover moves at most this; a contact
+shallower than half of it may hide there."""
 
 
 @dataclass(frozen=True)
@@ -275,10 +279,13 @@ class Scene:
 
         :meth:`update` places the movers once per control step, so :meth:`clearance` sees them only there:
         at 0.5 m/s and 30 Hz a mover moves 17 mm between two looks, enough to graze a link and leave unseen.
-        Here each mover is placed at times between ``t0`` and ``t1`` (the ends excluded: :meth:`clearance`
-        sees those) no more than :data:`SWEEP_STEP` of its motion apart, the robot's distance asked at each,
-        and the mover put back where :meth:`update` placed it at ``t1``.  Exact below ``exact_below`` (m), as
-        :meth:`clearance` (``robot_capsules`` as there).  A mover whose box over the interval
+        Here each mover is placed at times from ``t0`` to ``t1`` no more than :data:`SWEEP_STEP` of its motion
+        apart, the robot's distance asked at each, and then between two of them wherever the mover's speed
+        bound leaves room for a contact there (:mod:`navstack.sim.lipschitz`: a mover that reverses between
+        samples, a vibration, hid a contact of up to half the spacing); a contact shallower than
+        :data:`SWEEP_RESOLUTION` / 2 may still hide.  The mover is put back where :meth:`update` placed it at
+        ``t1``.  Exact below ``exact_below`` (m), as :meth:`clearance` (``robot_capsules`` as there).  A mover
+        whose box over the interval
         is not within ``below`` of ``robot_boxes`` (``(lo, hi)``, each (L, 3) [m], as for :meth:`clearance`)
         is not asked.  The robot's own motion within the step is not swept (millimetres at most).
         """
@@ -286,25 +293,42 @@ class Scene:
         lo, hi = np.min(robot_boxes[0], axis=0), np.max(robot_boxes[1], axis=0)
         for m in self.movers:
             n = math.ceil(m.motion.peak_speed * (t1 - t0) / SWEEP_STEP)
-            shifts = np.array([m.motion.displacement(t0 + (t1 - t0) * k / n) for k in range(1, n)]).reshape(-1, 3)
+            shifts = np.array([m.motion.displacement(t0 + (t1 - t0) * k / max(n, 1)) for k in range(n + 1)])
             end = m.motion.displacement(t1)
-            if self._file_boxes is None or bool(np.all(shifts == end)):
+            if self._file_boxes is None or n == 0 or bool(np.all(shifts == end)):
                 continue  # it did not move (a linear motion before its start or after its stop)
-            box_lo = self._file_boxes[0][m.index] + shifts.min(axis=0)
-            box_hi = self._file_boxes[1][m.index] + shifts.max(axis=0)
+            box_lo = self._file_boxes[0][m.index] + shifts.min(axis=0) - SWEEP_STEP / 2  # between samples too
+            box_hi = self._file_boxes[1][m.index] + shifts.max(axis=0) + SWEEP_STEP / 2
             gap = np.maximum(np.maximum(box_lo - hi, lo - box_hi), 0.0)
             if float(np.sqrt(gap @ gap)) - BOX_SLACK >= max(best, 0.0):
                 continue  # it stays farther than what was already found
-            for shift in shifts:
-                self.client.resetBasePositionAndOrientation(m.body, (m.position + shift).tolist(), m.orientation)
-                reach = max(best, 0.0) + MARGIN  # PyBullet's distance may read up to 0.73 mm high
-                here = min((pt[8] for pt in self.client.getClosestPoints(robot_id, m.body, reach)), default=reach)
-                if here < best + MARGIN:
-                    self._place_exact(m.index, shift)
-                    best = min(best, self._sharpen(robot_id, here, exact_below, robot_capsules, [m.body]))
+            found, _ = sampled_minimum(self._mover_probe(robot_id, m, exact_below, robot_capsules, best), t0, t1, n,
+                                       m.motion.peak_speed, floor=0.0, resolution=SWEEP_RESOLUTION)
+            best = min(best, found)
             self.client.resetBasePositionAndOrientation(m.body, (m.position + end).tolist(), m.orientation)
             self._place_exact(m.index, end)
         return best
+
+    def _mover_probe(self, robot_id: int, m: _Mover, exact_below: float, capsules: Capsules | None,
+                     below: float) -> Callable[[float], tuple[float, float]]:
+        """``t -> (distance, lower bound)`` (m) from ``robot_id`` to mover ``m`` placed at time ``t`` (s), for
+        :func:`~navstack.sim.lipschitz.sampled_minimum`: exact (both equal) within :data:`MARGIN` of
+        ``max(exact_below, 0)``; PyBullet's (reading at most 0.73 mm high) elsewhere; ``below`` + MARGIN when
+        nothing is that close."""
+        exact_within = max(exact_below, 0.0) + MARGIN
+        reach = max(below, exact_within) + MARGIN
+
+        def probe(t: float) -> tuple[float, float]:
+            shift = m.motion.displacement(t)
+            self.client.resetBasePositionAndOrientation(m.body, (m.position + shift).tolist(), m.orientation)
+            self._place_exact(m.index, shift)
+            here = min((pt[8] for pt in self.client.getClosestPoints(robot_id, m.body, reach)), default=reach)
+            if here < exact_within:
+                value = self._sharpen(robot_id, here, exact_below, capsules, [m.body])
+                return value, value
+            return here, here - MARGIN
+
+        return probe
 
     def _place_exact(self, index: int, shift: NDArray[np.float64]) -> None:
         """Where the exact distances and :attr:`boxes` see obstacle ``index``: translated by ``shift`` (m) from
