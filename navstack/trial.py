@@ -467,6 +467,7 @@ class _Simulation:
         self.tip_error_max = 0.0
         self.slither_dev_max = 0.0
         self.min_clearance = np.inf
+        self._capsules_before = None  # the robot's capsules at the last measurement (the swept check)
         self.contacts = 0
         self.pinned_time = 0.0
         self.tip_des = tip0.copy()
@@ -497,7 +498,8 @@ class _Simulation:
         if self.scene.movers and self.steps:  # and while they moved since the last control step
             t = self.steps * self.dt
             clearance = self.scene.swept_clearance(self.body.body_id, t - self.dt, t, clearance, boxes, record,
-                                                   capsules)
+                                                   capsules, self._capsules_before)
+        self._capsules_before = capsules
         self.min_clearance = min(self.min_clearance, clearance)
         if clearance <= 0.0:
             self.contacts += 1

@@ -64,7 +64,8 @@ def _every_step(sim: _Simulation) -> float:
     qs = np.asarray(sim.trajectory.q)
     origins = np.array([sim.chain.frames(q)[1:22, :3, 3] @ sim.R0.T + sim.p0 for q in qs])
     times = np.asarray(sim.trajectory.t)
-    return min(far._measure(sim.scene, sim.body, qs[k], origins[k], times, k, sim.dt, np.inf)
+    return min(far._measure(sim.scene, sim.body, qs[k], origins[k], origins[k - 1] if k else None, times, k, sim.dt,
+                            np.inf)
                for k in range(len(qs)))
 
 
@@ -145,7 +146,8 @@ def test_a_box_corner_that_pybullet_reads_high_does_not_hide_the_minimum():
         qs[2, 0] += 0.0006
         origins = np.array([chain.frames(q)[1:22, :3, 3] @ R0.T + p0 for q in qs])
         times, dt = np.arange(3) / 30.0, 1.0 / 30.0
-        every = [far._measure(scene, body, qs[i], origins[i], times, i, dt, np.inf) for i in range(3)]
+        every = [far._measure(scene, body, qs[i], origins[i], origins[i - 1] if i else None, times, i, dt, np.inf)
+                 for i in range(3)]
         assert every[2] == pytest.approx(0.5994, abs=1e-6) and every[2] == min(every)
         assert far.replay_min_clearance(scene, body, qs, origins, times, dt) == pytest.approx(every[2], abs=1e-12)
     finally:

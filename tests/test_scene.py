@@ -502,6 +502,33 @@ def test_swept_clearance_sees_a_vibration_that_even_samples_alias(client):
     assert scene2.swept_clearance(probe2, 0.0, dt, min(ends2), _probe_boxes([0.0, 0.0, 0.0])) > 0.0
 
 
+def test_swept_clearance_moves_the_robot_with_its_capsules_before(client):
+    """A review's false contact: a sphere 1.5 mm ahead of a link, both moving at 0.06 m/s.  Held at its place
+    at t1, the link met the sphere's place at t0 (-0.5 mm, a contact); with its capsule at t0 given, its ends
+    move from there, and the distance is the 1.5 mm it is at every instant (exact, not PyBullet's)."""
+    v, dt, r_s, r_c, gap = 0.06, 1 / 30, 0.01, 0.025, 1.5e-3
+    a1, b1 = np.array([-0.2, 0.0, 0.0]), np.array([0.0, 0.0, 0.0])  # the link at t1, along x, its tip at 0
+    s = Sphere(center=[r_c + r_s + gap - v * dt, 0.0, 0.0], radius=r_s, motion=LinearMotion(velocity=[v, 0, 0]))
+    scene = Scene.build(client, world_of(s))
+    probe = _capsule_probe(client, a1, b1, r_c)
+    scene.update(dt)
+    client.performCollisionDetection()
+    at_t1 = scene.clearance(probe)
+    assert at_t1 == pytest.approx(gap, abs=1e-9)
+    after = (a1[None], b1[None], np.array([r_c]))
+    before = (a1[None] - [v * dt, 0, 0], b1[None] - [v * dt, 0, 0], np.array([r_c]))
+    boxes = (np.array([[-0.2 - r_c, -r_c, -r_c]]), np.array([[r_c, r_c, r_c]]))
+    held = scene.swept_clearance(probe, 0.0, dt, at_t1, boxes, 0.3, after)
+    assert held == pytest.approx(gap - v * dt, abs=1e-6)  # -0.5 mm: the held robot's contact
+    moving = scene.swept_clearance(probe, 0.0, dt, at_t1, boxes, 0.3, after, before)
+    assert moving == pytest.approx(gap, abs=1e-12)
+    pos, _ = client.getBasePositionAndOrientation(scene.obstacle_body[0])
+    np.testing.assert_allclose(pos, s.center + s.motion.displacement(dt), atol=1e-15)  # put back at t1
+    # and a link that did pass through the sphere between the looks (it backed out of it) is a contact
+    through = (a1[None] + [0.05, 0, 0], b1[None] + [0.05, 0, 0], np.array([r_c]))  # its tip in the sphere at t0
+    assert scene.swept_clearance(probe, 0.0, dt, at_t1, boxes, 0.3, after, through) <= 0.0
+
+
 def test_swept_clearance_asks_nothing_of_far_or_still_movers(client, monkeypatch):
     far = Sphere(center=[5.0, 0.0, 0.0], radius=0.1, motion=LinearMotion(velocity=[0.0, 0.5, 0.0]))
     waiting = Sphere(center=[0.2, 0.0, 0.0], radius=0.1, motion=LinearMotion(velocity=[-0.5, 0.0, 0.0], start=5.0))

@@ -10,7 +10,8 @@ origins (interfaces.md section 1), so no point of the robot's surface moves fart
 than the farthest-moving origin; a mover moves at most its ``peak_speed`` times the time.  A signed
 distance changes by no more than the surfaces move, so after measuring ``d_j`` at step ``j`` a later step
 ``k`` cannot come below ``d_j - (origins' largest displacement) - (movers' peak speed) x (t_k - t_j + dt)``
-(the ``dt``: the movers are swept over the step before ``k``, as in the trial), less PyBullet's
+(the ``dt``: the movers are swept over the step before ``k``, as in the trial, the robot moving from step
+``k - 1``'s place to ``k``'s, so its displacement is the larger of the two steps'), less PyBullet's
 :data:`~navstack.sim.exact_distance.MARGIN` (its distance to a box corner may read that much high where it
 is not sharpened).  Steps whose bound is not
 below the smallest clearance found so far are skipped; the result is the same minimum as measuring every
@@ -51,7 +52,7 @@ def replay_min_clearance(scene: Any, body: Any, qs: NDArray[np.float64], origins
     speed = max((m.motion.peak_speed for m in scene.movers), default=0.0)
     best, j = math.inf, 0
     while j < n:
-        here = _measure(scene, body, qs[j], origins[j], times, j, dt, best)
+        here = _measure(scene, body, qs[j], origins[j], origins[j - 1] if j else None, times, j, dt, best)
         best = min(best, here)
         j = _next_step(origins, times, j, here, best, speed, dt)
     _place(scene, body, qs[n - 1], times[n - 1])
@@ -65,7 +66,8 @@ def _next_step(origins: NDArray[np.float64], times: NDArray[np.float64], j: int,
     k = j + 1
     while k < n:
         stop = min(k + _CHUNK, n)
-        moved = np.sqrt(((origins[k:stop] - origins[j]) ** 2).sum(axis=2)).max(axis=1)
+        moved = np.sqrt(((origins[k - 1:stop] - origins[j]) ** 2).sum(axis=2)).max(axis=1)
+        moved = np.maximum(moved[1:], moved[:-1])  # the swept check moves the robot from step k - 1 to k
         bound = here - MARGIN - moved - speed * (times[k:stop] - times[j] + dt)  # ``here`` may read MARGIN high
         low = np.flatnonzero(bound < best)
         if len(low):
@@ -81,8 +83,9 @@ def _place(scene: Any, body: Any, q: NDArray[np.float64], t: float) -> None:
 
 
 def _measure(scene: Any, body: Any, q: NDArray[np.float64], origins: NDArray[np.float64],
-             times: NDArray[np.float64], k: int, dt: float, best: float) -> float:
-    """The trial's clearance at step ``k`` (``Simulation._measure``), exact below ``best`` and without a horizon.
+             before: NDArray[np.float64] | None, times: NDArray[np.float64], k: int, dt: float, best: float) -> float:
+    """The trial's clearance at step ``k`` (``Simulation._measure``; ``before``: the frame origins of step
+    ``k - 1``, for the swept check), exact below ``best`` and without a horizon.
 
     The query distance doubles from 1 m until something lies within it: PyBullet returns a closest point for
     every triangle of a mesh within the distance, and one query of 10 km around a 5,120-triangle mesh crashed
@@ -96,7 +99,7 @@ def _measure(scene: Any, body: Any, q: NDArray[np.float64], origins: NDArray[np.
         if clearance < reach or reach >= FAR:
             break
         reach = min(2.0 * reach, FAR)
-    if scene.movers and k:
+    if scene.movers and k and before is not None:
         clearance = scene.swept_clearance(body.body_id, times[k] - dt, times[k], clearance, boxes, record,
-                                          capsules)
+                                          capsules, body.capsules(before))
     return float(clearance)

@@ -87,6 +87,11 @@ SWEEP_STEP = 1e-3
 """The most (m) a moving obstacle moves between two of :meth:`Scene.swept_clearance`'s even samples; where a
 contact could hide between two (the mover's speed bound, :mod:`navstack.sim.lipschitz`), more are taken."""
 
+SWEEP_MAX_EXTRA = 5000
+"""The most samples :meth:`Scene.swept_clearance` adds between its even ones, per mover and control step; past
+them it counts a contact wherever one could still hide (a mover sliding past a link within micrometres for a
+whole step: a possible wrong failure, never a missed contact)."""
+
 SWEEP_RESOLUTION = 1e-6
 """m: :meth:`Scene.swept_clearance` stops halving an interval over which the mover moves at most this; a contact
 shallower than half of it may hide there."""
@@ -273,26 +278,41 @@ class Scene:
 
     def swept_clearance(self, robot_id: int, t0: float, t1: float, below: float,
                         robot_boxes: tuple[NDArray[np.float64], NDArray[np.float64]],
-                        exact_below: float = 0.0, robot_capsules: Capsules | None = None) -> float:
+                        exact_below: float = 0.0, robot_capsules: Capsules | None = None,
+                        previous_capsules: Capsules | None = None) -> float:
         """The smallest distance (m) from ``robot_id`` to the moving obstacles while they move from simulated
-        time ``t0`` to ``t1`` (s), the robot held where it is now; ``below`` if none comes closer than that.
+        time ``t0`` to ``t1`` (s); ``below`` if none comes closer than that.
 
         :meth:`update` places the movers once per control step, so :meth:`clearance` sees them only there:
         at 0.5 m/s and 30 Hz a mover moves 17 mm between two looks, enough to graze a link and leave unseen.
-        Here each mover is placed at times from ``t0`` to ``t1`` no more than :data:`SWEEP_STEP` of its motion
-        apart, the robot's distance asked at each, and then between two of them wherever the mover's speed
-        bound leaves room for a contact there (:mod:`navstack.sim.lipschitz`: a mover that reverses between
-        samples, a vibration, hid a contact of up to half the spacing); a contact shallower than
-        :data:`SWEEP_RESOLUTION` / 2 may still hide.  The mover is put back where :meth:`update` placed it at
-        ``t1``.  Exact below ``exact_below`` (m), as :meth:`clearance` (``robot_capsules`` as there).  A mover
-        whose box over the interval
-        is not within ``below`` of ``robot_boxes`` (``(lo, hi)``, each (L, 3) [m], as for :meth:`clearance`)
-        is not asked.  The robot's own motion within the step is not swept (millimetres at most).
+        Here each mover is placed at times from ``t0`` to ``t1`` no more than :data:`SWEEP_STEP` of the relative
+        motion apart, the distance asked at each, and then between two of them wherever the speed bound leaves
+        room for a contact there (:mod:`navstack.sim.lipschitz`: a mover that reverses between samples, a
+        vibration, hid a contact of up to half the spacing); a contact shallower than :data:`SWEEP_RESOLUTION`
+        / 2 may still hide.  The mover is put back where :meth:`update` placed it at ``t1``.
+
+        With ``previous_capsules`` (the robot's capsules at ``t0``, as ``robot_capsules`` at ``t1``) the robot
+        moves too: each capsule's ends go in straight lines from their ``t0`` to their ``t1`` places, and every
+        distance is exact (:mod:`navstack.sim.exact_distance`: movers are primitives, the robot's links
+        capsules).  Without, the robot is held where it is now (its motion within the step, up to 2.2 mm,
+        then neither seen nor excused: a mover it kept clear of at t0 could read as a contact) and the
+        distances are PyBullet's, exact below ``exact_below`` (m) as in :meth:`clearance`.  A mover whose box
+        over the interval is not within ``below`` of ``robot_boxes`` (``(lo, hi)``, each (L, 3) [m], as for
+        :meth:`clearance`; grown by how far the capsules moved) is not asked.
         """
         best = float(below)
         lo, hi = np.min(robot_boxes[0], axis=0), np.max(robot_boxes[1], axis=0)
+        caps, robot_rate = robot_capsules, 0.0
+        if previous_capsules is not None and robot_capsules is not None:
+            moved = max(float(np.abs(previous_capsules[0] - robot_capsules[0]).max(initial=0.0)),
+                        float(np.abs(previous_capsules[1] - robot_capsules[1]).max(initial=0.0)))
+            lo, hi = lo - moved, hi + moved
+            robot_rate = max(float(np.linalg.norm(previous_capsules[0] - robot_capsules[0], axis=1).max(initial=0.0)),
+                             float(np.linalg.norm(previous_capsules[1] - robot_capsules[1], axis=1).max(initial=0.0))
+                             ) / (t1 - t0)
         for m in self.movers:
-            n = math.ceil(m.motion.peak_speed * (t1 - t0) / SWEEP_STEP)
+            rate = m.motion.peak_speed + robot_rate
+            n = math.ceil(rate * (t1 - t0) / SWEEP_STEP)
             shifts = np.array([m.motion.displacement(t0 + (t1 - t0) * k / max(n, 1)) for k in range(n + 1)])
             end = m.motion.displacement(t1)
             if self._file_boxes is None or n == 0 or bool(np.all(shifts == end)):
@@ -302,31 +322,57 @@ class Scene:
             gap = np.maximum(np.maximum(box_lo - hi, lo - box_hi), 0.0)
             if float(np.sqrt(gap @ gap)) - BOX_SLACK >= max(best, 0.0):
                 continue  # it stays farther than what was already found
-            found, _ = sampled_minimum(self._mover_probe(robot_id, m, exact_below, robot_capsules, best), t0, t1, n,
-                                       m.motion.peak_speed, floor=0.0, resolution=SWEEP_RESOLUTION)
+            if previous_capsules is not None and robot_capsules is not None:
+                probe = self._moving_probe(m, previous_capsules, robot_capsules, t0, t1, max(best, 0.0) + MARGIN)
+            else:
+                if caps is None:
+                    caps = _link_capsules(self.client, robot_id, self._capsules)
+                probe = self._mover_probe(robot_id, m, exact_below, caps, best)
+            found, _ = sampled_minimum(probe, t0, t1, n, rate, floor=0.0, resolution=SWEEP_RESOLUTION,
+                                       max_extra=SWEEP_MAX_EXTRA)
             best = min(best, found)
             self.client.resetBasePositionAndOrientation(m.body, (m.position + end).tolist(), m.orientation)
             self._place_exact(m.index, end)
         return best
 
-    def _mover_probe(self, robot_id: int, m: _Mover, exact_below: float, capsules: Capsules | None,
+    def _moving_probe(self, m: _Mover, before: Capsules, after: Capsules, t0: float, t1: float,
+                      reach: float) -> Callable[[float], tuple[float, float]]:
+        """``t -> (distance, distance)`` (m), exact, from the robot's capsules at time ``t`` (their ends moved in
+        straight lines from ``before`` at ``t0`` to ``after`` at ``t1``) to mover ``m`` placed at ``t`` (s);
+        ``reach`` (m) when it is farther than that."""
+        (a0, b0, r), (a1, b1, _) = before, after
+
+        def probe(t: float) -> tuple[float, float]:
+            w = (t - t0) / (t1 - t0)
+            self._place_exact(m.index, m.motion.displacement(t))
+            caps = (a0 + w * (a1 - a0), b0 + w * (b1 - b0), r)
+            value = min((d for _, d in self._exact_distances(caps, [m.body], reach)), default=reach)
+            return value, value
+
+        return probe
+
+    def _mover_probe(self, robot_id: int, m: _Mover, exact_below: float, capsules: Capsules,
                      below: float) -> Callable[[float], tuple[float, float]]:
         """``t -> (distance, lower bound)`` (m) from ``robot_id`` to mover ``m`` placed at time ``t`` (s), for
-        :func:`~navstack.sim.lipschitz.sampled_minimum`: exact (both equal) within :data:`MARGIN` of
-        ``max(exact_below, 0)``; PyBullet's (reading at most 0.73 mm high) elsewhere; ``below`` + MARGIN when
-        nothing is that close."""
-        exact_within = max(exact_below, 0.0) + MARGIN
-        reach = max(below, exact_within) + MARGIN
+        :func:`~navstack.sim.lipschitz.sampled_minimum`: wherever PyBullet finds it within reach, measured
+        exactly against the robot's ``capsules`` (a mover is a primitive; about 2 us), the two equal;
+        beyond reach (``max(below, max(exact_below, 0) + MARGIN) + MARGIN``), the reach and the reach less
+        :data:`MARGIN` (PyBullet reads at most 0.73 mm high).  A contact PyBullet reports is kept even if the
+        exact test disagrees."""
+        reach = max(below, max(exact_below, 0.0) + MARGIN) + MARGIN
 
         def probe(t: float) -> tuple[float, float]:
             shift = m.motion.displacement(t)
             self.client.resetBasePositionAndOrientation(m.body, (m.position + shift).tolist(), m.orientation)
             self._place_exact(m.index, shift)
             here = min((pt[8] for pt in self.client.getClosestPoints(robot_id, m.body, reach)), default=reach)
-            if here < exact_within:
-                value = self._sharpen(robot_id, here, exact_below, capsules, [m.body])
-                return value, value
-            return here, here - MARGIN
+            if here >= reach:
+                return reach, reach - MARGIN
+            exact = [d for _, d in self._exact_distances(capsules, [m.body], max(here, 0.0) + MARGIN)]
+            if not exact:
+                return here, here - MARGIN
+            value = here if here <= 0.0 < min(exact) else min(exact)
+            return value, value
 
         return probe
 
