@@ -108,9 +108,12 @@ def check_q(q: ArrayLike, n: int, name: str = "q") -> NDArray[np.float64]:
         raw = np.asarray(q)
     except ValueError:  # a ragged sequence
         raise ValueError(f"{name} must be a vector of {n} joint values, got a ragged sequence") from None
-    if raw.dtype.kind == "O":  # not numbers at all (a World, None entries): the wrong kind of argument
-        what = type(q).__name__ if raw.ndim == 0 else "entries that are not numbers"
-        raise TypeError(f"{name} must hold real numbers, got {what}")
+    if raw.dtype.kind == "O":  # Python objects: real numbers numpy keeps as objects (10**30), or not numbers
+        if raw.ndim == 0 or not all(isinstance(x, (int, float, np.integer, np.floating))
+                                    and not isinstance(x, (bool, np.bool_)) for x in raw.ravel()):
+            what = type(q).__name__ if raw.ndim == 0 else "entries that are not real numbers"
+            raise TypeError(f"{name} must hold real numbers, got {what}")  # a World, None, a string among them
+        raw = raw.astype(np.float64)
     if raw.dtype.kind not in "fiu":  # "0" strings, True, 1+0j converted silently before
         raise ValueError(f"{name} must hold real numbers, got {raw.dtype} values")
     arr = raw.astype(np.float64, copy=False)

@@ -138,12 +138,22 @@ def test_bad_joint_vectors_raise(q, message):
         ROBOT.points_and_jacobians(q)
 
 
-@pytest.mark.parametrize("q, message", [(object(), "got object"), ([None] * 20, "got entries that are not numbers"),
-                                        ([None] + [0.0] * 19, "got entries that are not numbers")])
+@pytest.mark.parametrize("q, message", [(object(), "got object"), ([None] * 20, "got entries that are not real"),
+                                        ([None] + [0.0] * 19, "got entries that are not real"),
+                                        ([True] * 19 + [None], "got entries that are not real"),
+                                        (["0"] * 19 + [None], "got entries that are not real")])
 def test_joint_vectors_of_objects_are_a_type_error(q, message):
     """A World passed where q0 goes must stay a TypeError naming it (tests/test_isolation.py)."""
     with pytest.raises(TypeError, match=message):
         ROBOT.frames(q)
+
+
+def test_real_numbers_numpy_keeps_as_objects_are_joint_values():
+    """An object array of floats, or an int too large for int64 among them, was called 'not numbers'."""
+    np.testing.assert_array_equal(ROBOT.frames(np.zeros(20, dtype=object)), ROBOT.frames(np.zeros(20)))
+    q = [0.0] * 20
+    q[5] = 10**30  # a finite real number (far outside the limits: frames does not check limits)
+    assert np.isfinite(ROBOT.frames(q)[1]).all()
 
 
 def test_table_units_are_metres():
