@@ -529,6 +529,30 @@ def test_swept_clearance_moves_the_robot_with_its_capsules_before(client):
     assert scene.swept_clearance(probe, 0.0, dt, at_t1, boxes, 0.3, after, through) <= 0.0
 
 
+def test_a_vibration_whose_every_sample_lands_on_its_crest_is_not_taken_for_still(client):
+    """A review's missed contact: a period that divides the samples' spacing (dt / 30, 30 samples) and a phase
+    of pi / 2 put every sample on the crest (sin rounds to exactly 1.0), all displacements read equal, and the
+    mover was skipped as not moving: +0.118 mm against -0.200 mm by brute force over 20,001 instants."""
+    dt = 1 / 30
+    amp, r_s, r_c, depth = 0.159e-3, 0.02, 0.025, 0.2e-3
+    a1, b1 = np.array([-0.2, 0.0, 0.0]), np.array([0.0, 0.0, 0.0])
+    s = Sphere(center=[r_c + r_s - depth + amp, 0.0, 0.0], radius=r_s,
+               motion=OscillateMotion(axis=[1.0, 0.0, 0.0], amplitude=amp, period=dt / 30, phase=np.pi / 2))
+    scene = Scene.build(client, world_of(s))
+    probe = _capsule_probe(client, a1, b1, r_c)
+    caps = (a1[None], b1[None], np.array([r_c]))
+    boxes = (np.array([[-0.2 - r_c, -r_c, -r_c]]), np.array([[r_c, r_c, r_c]]))
+    ts = np.linspace(0.0, dt, 20001)  # closed form: the sphere's centre on the link's axis beyond its tip
+    brute = min(s.center[0] + s.motion.displacement(t)[0] - r_s - r_c for t in ts)
+    assert brute == pytest.approx(-depth, abs=1e-7)
+    scene.update(dt)
+    client.performCollisionDetection()
+    at_t1 = scene.clearance(probe, 1.0, boxes, 0.0, caps)
+    assert at_t1 > 0.0  # the look at t1 sees it on its crest, clear
+    for previous in (None, caps):
+        assert scene.swept_clearance(probe, 0.0, dt, at_t1, boxes, 0.0, caps, previous) <= 0.0
+
+
 def test_swept_clearance_asks_nothing_of_far_or_still_movers(client, monkeypatch):
     far = Sphere(center=[5.0, 0.0, 0.0], radius=0.1, motion=LinearMotion(velocity=[0.0, 0.5, 0.0]))
     waiting = Sphere(center=[0.2, 0.0, 0.0], radius=0.1, motion=LinearMotion(velocity=[-0.5, 0.0, 0.0], start=5.0))
