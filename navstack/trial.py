@@ -497,8 +497,8 @@ class _Simulation:
         clearance = self.scene.clearance(self.body.body_id, self.cfg.clearance_horizon, boxes, record, capsules)
         if self.scene.movers and self.steps:  # and while they moved since the last control step
             t = self.steps * self.dt
-            clearance = self.scene.swept_clearance(self.body.body_id, t - self.dt, t, clearance, boxes, record,
-                                                   capsules, self._capsules_before)
+            clearance = self.scene.swept_clearance(self.body.body_id, t - self.dt, t, clearance, boxes, capsules,
+                                                   self._capsules_before)
         self._capsules_before = capsules
         self.min_clearance = min(self.min_clearance, clearance)
         if clearance <= 0.0:

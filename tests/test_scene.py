@@ -518,15 +518,15 @@ def test_swept_clearance_moves_the_robot_with_its_capsules_before(client):
     after = (a1[None], b1[None], np.array([r_c]))
     before = (a1[None] - [v * dt, 0, 0], b1[None] - [v * dt, 0, 0], np.array([r_c]))
     boxes = (np.array([[-0.2 - r_c, -r_c, -r_c]]), np.array([[r_c, r_c, r_c]]))
-    held = scene.swept_clearance(probe, 0.0, dt, at_t1, boxes, 0.3, after)
+    held = scene.swept_clearance(probe, 0.0, dt, at_t1, boxes, after)
     assert held == pytest.approx(gap - v * dt, abs=1e-6)  # -0.5 mm: the held robot's contact
-    moving = scene.swept_clearance(probe, 0.0, dt, at_t1, boxes, 0.3, after, before)
+    moving = scene.swept_clearance(probe, 0.0, dt, at_t1, boxes, after, before)
     assert moving == pytest.approx(gap, abs=1e-12)
     pos, _ = client.getBasePositionAndOrientation(scene.obstacle_body[0])
     np.testing.assert_allclose(pos, s.center + s.motion.displacement(dt), atol=1e-15)  # put back at t1
     # and a link that did pass through the sphere between the looks (it backed out of it) is a contact
     through = (a1[None] + [0.05, 0, 0], b1[None] + [0.05, 0, 0], np.array([r_c]))  # its tip in the sphere at t0
-    assert scene.swept_clearance(probe, 0.0, dt, at_t1, boxes, 0.3, after, through) <= 0.0
+    assert scene.swept_clearance(probe, 0.0, dt, at_t1, boxes, after, through) <= 0.0
 
 
 def test_a_vibration_whose_every_sample_lands_on_its_crest_is_not_taken_for_still(client):
@@ -550,7 +550,7 @@ def test_a_vibration_whose_every_sample_lands_on_its_crest_is_not_taken_for_stil
     at_t1 = scene.clearance(probe, 1.0, boxes, 0.0, caps)
     assert at_t1 > 0.0  # the look at t1 sees it on its crest, clear
     for previous in (None, caps):
-        assert scene.swept_clearance(probe, 0.0, dt, at_t1, boxes, 0.0, caps, previous) <= 0.0
+        assert scene.swept_clearance(probe, 0.0, dt, at_t1, boxes, caps, previous) <= 0.0
 
 
 def test_swept_clearance_asks_nothing_of_far_or_still_movers(client, monkeypatch):
@@ -561,6 +561,7 @@ def test_swept_clearance_asks_nothing_of_far_or_still_movers(client, monkeypatch
     place(client, probe, [0.0, 0.0, 0.0])
     calls = []
     monkeypatch.setattr(client, "getClosestPoints", lambda *a, **k: calls.append(a) or [])
+    monkeypatch.setattr(scene, "_exact_distances", lambda *a, **k: calls.append(a) or [])
     below = 0.2 - 0.1 - R_PROBE
     assert scene.swept_clearance(probe, 1.0, 1.0 + 1 / 30, below, _probe_boxes([0.0, 0.0, 0.0])) == below
     assert calls == []  # the far one's box stays farther than `below`; the near one has not started to move

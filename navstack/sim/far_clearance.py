@@ -100,6 +100,6 @@ def _measure(scene: Any, body: Any, q: NDArray[np.float64], origins: NDArray[np.
             break
         reach = min(2.0 * reach, FAR)
     if scene.movers and k and before is not None:
-        clearance = scene.swept_clearance(body.body_id, times[k] - dt, times[k], clearance, boxes, record,
-                                          capsules, body.capsules(before))
+        clearance = scene.swept_clearance(body.body_id, times[k] - dt, times[k], clearance, boxes, capsules,
+                                          body.capsules(before))
     return float(clearance)

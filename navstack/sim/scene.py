@@ -278,8 +278,7 @@ class Scene:
 
     def swept_clearance(self, robot_id: int, t0: float, t1: float, below: float,
                         robot_boxes: tuple[NDArray[np.float64], NDArray[np.float64]],
-                        exact_below: float = 0.0, robot_capsules: Capsules | None = None,
-                        previous_capsules: Capsules | None = None) -> float:
+                        robot_capsules: Capsules | None = None, previous_capsules: Capsules | None = None) -> float:
         """The smallest distance (m) from ``robot_id`` to the moving obstacles while they move from simulated
         time ``t0`` to ``t1`` (s); ``below`` if none comes closer than that.
 
@@ -289,57 +288,56 @@ class Scene:
         motion apart, the distance asked at each, and then between two of them wherever the speed bound leaves
         room for a contact there (:mod:`navstack.sim.lipschitz`: a mover that reverses between samples, a
         vibration, hid a contact of up to half the spacing); a contact shallower than :data:`SWEEP_RESOLUTION`
-        / 2 may still hide.  The mover is put back where :meth:`update` placed it at ``t1``.
+        / 2 may still hide.  Every distance is exact (:mod:`navstack.sim.exact_distance`: movers are
+        primitives, the robot's links capsules).  The mover is put back where :meth:`update` placed it at
+        ``t1``.
 
-        With ``previous_capsules`` (the robot's capsules at ``t0``, as ``robot_capsules`` at ``t1``) the robot
-        moves too: each capsule's ends go in straight lines from their ``t0`` to their ``t1`` places, and every
-        distance is exact (:mod:`navstack.sim.exact_distance`: movers are primitives, the robot's links
-        capsules).  Without, the robot is held where it is now (its motion within the step, up to 2.2 mm,
-        then neither seen nor excused: a mover it kept clear of at t0 could read as a contact) and the
-        distances are PyBullet's, exact below ``exact_below`` (m) as in :meth:`clearance`.  A mover whose box
-        over the interval is not within ``below`` of ``robot_boxes`` (``(lo, hi)``, each (L, 3) [m], as for
-        :meth:`clearance`; grown by how far the capsules moved) is not asked.
+        ``robot_capsules``: the robot's capsules now, at ``t1`` (read from PyBullet if None);
+        ``previous_capsules``: at ``t0``.  With them the robot moves too, each capsule's ends in straight lines
+        from their ``t0`` to their ``t1`` places; without, it is held where it is now (its motion within the
+        step, up to 2.2 mm, then neither seen nor excused: a mover it kept clear of at t0 could read as a
+        contact).  A mover whose box over the interval is not within ``below`` of ``robot_boxes`` (``(lo, hi)``,
+        each (L, 3) [m], as for :meth:`clearance`; grown by how far the capsules moved) is not asked.
         """
         best = float(below)
         lo, hi = np.min(robot_boxes[0], axis=0), np.max(robot_boxes[1], axis=0)
-        caps, robot_rate = robot_capsules, 0.0
-        if previous_capsules is not None and robot_capsules is not None:
-            moved = max(float(np.abs(previous_capsules[0] - robot_capsules[0]).max(initial=0.0)),
-                        float(np.abs(previous_capsules[1] - robot_capsules[1]).max(initial=0.0)))
+        after, before, robot_rate = robot_capsules, previous_capsules, 0.0
+        if before is not None:
+            if after is None:
+                after = _link_capsules(self.client, robot_id, self._capsules)
+            moved = max(float(np.abs(before[0] - after[0]).max(initial=0.0)),
+                        float(np.abs(before[1] - after[1]).max(initial=0.0)))
             lo, hi = lo - moved, hi + moved
-            robot_rate = max(float(np.linalg.norm(previous_capsules[0] - robot_capsules[0], axis=1).max(initial=0.0)),
-                             float(np.linalg.norm(previous_capsules[1] - robot_capsules[1], axis=1).max(initial=0.0))
-                             ) / (t1 - t0)
+            robot_rate = max(float(np.linalg.norm(before[0] - after[0], axis=1).max(initial=0.0)),
+                             float(np.linalg.norm(before[1] - after[1], axis=1).max(initial=0.0))) / (t1 - t0)
         for m in self.movers:
             rate = m.motion.peak_speed + robot_rate
             n = math.ceil(rate * (t1 - t0) / SWEEP_STEP)
-            shifts = np.array([m.motion.displacement(t0 + (t1 - t0) * k / max(n, 1)) for k in range(n + 1)])
-            end = m.motion.displacement(t1)
             if self._file_boxes is None or n == 0 or _still(m.motion, t0, t1):
                 continue  # it did not move (a linear motion before its start or after its stop; amplitude 0)
+            shifts = np.array([m.motion.displacement(t0 + (t1 - t0) * k / n) for k in range(n + 1)])
             box_lo = self._file_boxes[0][m.index] + shifts.min(axis=0) - SWEEP_STEP / 2  # between samples too
             box_hi = self._file_boxes[1][m.index] + shifts.max(axis=0) + SWEEP_STEP / 2
             gap = np.maximum(np.maximum(box_lo - hi, lo - box_hi), 0.0)
             if float(np.sqrt(gap @ gap)) - BOX_SLACK >= max(best, 0.0):
                 continue  # it stays farther than what was already found
-            if previous_capsules is not None and robot_capsules is not None:
-                probe = self._moving_probe(m, previous_capsules, robot_capsules, t0, t1, max(best, 0.0) + MARGIN)
-            else:
-                if caps is None:
-                    caps = _link_capsules(self.client, robot_id, self._capsules)
-                probe = self._mover_probe(robot_id, m, exact_below, caps, best)
+            if after is None:
+                after = _link_capsules(self.client, robot_id, self._capsules)
+            probe = self._mover_probe(m, after if before is None else before, after, t0, t1, max(best, 0.0) + MARGIN)
             found, _ = sampled_minimum(probe, t0, t1, n, rate, floor=0.0, resolution=SWEEP_RESOLUTION,
                                        max_extra=SWEEP_MAX_EXTRA)
             best = min(best, found)
+            end = m.motion.displacement(t1)
             self.client.resetBasePositionAndOrientation(m.body, (m.position + end).tolist(), m.orientation)
             self._place_exact(m.index, end)
         return best
 
-    def _moving_probe(self, m: _Mover, before: Capsules, after: Capsules, t0: float, t1: float,
-                      reach: float) -> Callable[[float], tuple[float, float]]:
+    def _mover_probe(self, m: _Mover, before: Capsules, after: Capsules, t0: float, t1: float,
+                     reach: float) -> Callable[[float], tuple[float, float]]:
         """``t -> (distance, distance)`` (m), exact, from the robot's capsules at time ``t`` (their ends moved in
-        straight lines from ``before`` at ``t0`` to ``after`` at ``t1``) to mover ``m`` placed at ``t`` (s);
-        ``reach`` (m) when it is farther than that."""
+        straight lines from ``before`` at ``t0`` to ``after`` at ``t1``) to mover ``m`` placed at ``t`` (s), for
+        :func:`~navstack.sim.lipschitz.sampled_minimum`; ``reach`` (m) when it is farther than that (only
+        primitives farther than ``reach`` are left out, so it is a lower bound then)."""
         (a0, b0, r), (a1, b1, _) = before, after
 
         def probe(t: float) -> tuple[float, float]:
@@ -347,31 +345,6 @@ class Scene:
             self._place_exact(m.index, m.motion.displacement(t))
             caps = (a0 + w * (a1 - a0), b0 + w * (b1 - b0), r)
             value = min((d for _, d in self._exact_distances(caps, [m.body], reach)), default=reach)
-            return value, value
-
-        return probe
-
-    def _mover_probe(self, robot_id: int, m: _Mover, exact_below: float, capsules: Capsules,
-                     below: float) -> Callable[[float], tuple[float, float]]:
-        """``t -> (distance, lower bound)`` (m) from ``robot_id`` to mover ``m`` placed at time ``t`` (s), for
-        :func:`~navstack.sim.lipschitz.sampled_minimum`: wherever PyBullet finds it within reach, measured
-        exactly against the robot's ``capsules`` (a mover is a primitive; about 2 us), the two equal;
-        beyond reach (``max(below, max(exact_below, 0) + MARGIN) + MARGIN``), the reach and the reach less
-        :data:`MARGIN` (PyBullet reads at most 0.73 mm high).  A contact PyBullet reports is kept even if the
-        exact test disagrees."""
-        reach = max(below, max(exact_below, 0.0) + MARGIN) + MARGIN
-
-        def probe(t: float) -> tuple[float, float]:
-            shift = m.motion.displacement(t)
-            self.client.resetBasePositionAndOrientation(m.body, (m.position + shift).tolist(), m.orientation)
-            self._place_exact(m.index, shift)
-            here = min((pt[8] for pt in self.client.getClosestPoints(robot_id, m.body, reach)), default=reach)
-            if here >= reach:
-                return reach, reach - MARGIN
-            exact = [d for _, d in self._exact_distances(capsules, [m.body], max(here, 0.0) + MARGIN)]
-            if not exact:
-                return here, here - MARGIN
-            value = here if here <= 0.0 < min(exact) else min(exact)
             return value, value
 
         return probe
@@ -466,11 +439,11 @@ class Scene:
             best, mesh = d, d  # PyBullet's smallest distance to the primitives, to the meshes
             for b, g in zip(bodies, bound, strict=True):
                 if g < d:
-                    for pt in cl.getClosestPoints(robot_id, b, d):
-                        if len(prims[b]):
-                            best = min(best, pt[8])
-                        else:
-                            mesh = min(mesh, pt[8])
+                    near = min((pt[8] for pt in cl.getClosestPoints(robot_id, b, d)), default=d)
+                    if len(prims[b]):
+                        best = min(best, near)
+                    else:
+                        mesh = min(mesh, near)
             if min(best, mesh) < d:
                 sharp = self._sharpen(robot_id, float(best), float(exact_below), robot_capsules, bodies, bound)
                 return min(sharp, float(mesh))
