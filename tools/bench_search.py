@@ -31,7 +31,7 @@ import navstack.planner.search as search_module
 from navstack.trial import TrialConfig, run_trial
 from navstack.world import World
 
-NODE_ARRAYS = 9
+NODE_ARRAYS = 10
 """The kernel's last arguments: the node arrays it fills (positions, headings, ..., lengths)."""
 
 

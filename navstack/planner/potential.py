@@ -277,7 +277,8 @@ def _done_state(values: NDArray[np.float64]) -> tuple:
 
 @kernel
 def _wave_seed(wave, goal, reach, origin, cell):  # pragma: no cover - jitted
-    """Start the wavefront: every value ``inf`` but the cells within ``reach`` of ``goal`` (0, queued)."""
+    """Start the wavefront: every value ``inf`` but the cells within ``reach`` of ``goal`` (0, queued), and
+    the goal's own cell (a ball smaller than a cell may hold no cell's centre: the wave was then empty)."""
     cost, flat, keys, cells, pos, heap, _ = wave
     nx, ny, nz = cost.shape
     flat[:] = np.inf
@@ -293,7 +294,8 @@ def _wave_seed(wave, goal, reach, origin, cell):  # pragma: no cover - jitted
                 x = origin[0] + (i + 0.5) * cell - goal[0]
                 y = origin[1] + (j + 0.5) * cell - goal[1]
                 z = origin[2] + (k + 0.5) * cell - goal[2]
-                if x * x + y * y + z * z <= (reach + 0.5 * cell) ** 2 and cost[i, j, k] >= 0.0:
+                own = i == gi and j == gj and k == gk
+                if (own or x * x + y * y + z * z <= (reach + 0.5 * cell) ** 2) and cost[i, j, k] >= 0.0:
                     idx = (i * ny + j) * nz + k
                     flat[idx] = 0.0
                     keys[n] = 0.0

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import heapq
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numba
 import numpy as np
@@ -179,6 +179,9 @@ class Plan:
         goal_index: (N,) index of the next goal at each sample (= number of goals when all passed).
         status: ``REACHED``, ``PARTIAL`` or ``NO_PATH`` (then a single sample, the start).
         cost: the path's cost [m]; ``expansions``: states expanded.
+        stops: (S,) arc lengths [m] of the samples that lie exactly on a goal (where a goal shot ends), in
+            order: the command lands on each (:class:`~navstack.planner.steering.PlanFollower`), so the
+            tip is there at a control step however small the goal's tolerance.
     """
 
     points: NDArray[np.float64]
@@ -188,6 +191,7 @@ class Plan:
     status: int
     cost: float
     expansions: int
+    stops: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
 
     @property
     def length(self) -> float:
@@ -478,10 +482,140 @@ def _arm_clear(qx, qy, qz, node, NP, NPAR, hist, L, arm_pts, flange, r, line, pt
 
 
 @numba.njit(cache=True)
+def goal_shot(px, py, pz, hx, hy, hz, gx, gy, gz, kappa_max):  # pragma: no cover - jitted
+    """The circular arc from the state (p, unit h) that ends exactly on the point g (hybrid A*'s analytic
+    expansion, with one arc): ``(kappa, nx, ny, nz, length)``, ``n`` the unit direction it turns towards
+    (perpendicular to h; any for a straight shot, kappa 0) and ``length`` its arc length [m]; ``length`` is
+    -1 where g is not ahead of the heading or the arc would be tighter than ``kappa_max`` [1/m].
+
+    In the plane of h and v = g - p, the arc tangent to h through g turns by twice the angle between h
+    and v: curvature 2 sin(angle) / |v|, length 2 angle / curvature."""
+    vx, vy, vz = gx - px, gy - py, gz - pz
+    d = math.sqrt(vx * vx + vy * vy + vz * vz)
+    along = vx * hx + vy * hy + vz * hz
+    if d <= 0.0 or along <= 0.0:
+        return 0.0, 0.0, 0.0, 0.0, -1.0
+    ex, ey, ez = vx - along * hx, vy - along * hy, vz - along * hz
+    off = math.sqrt(ex * ex + ey * ey + ez * ez)
+    kappa = 2.0 * off / (d * d)
+    if kappa < 1e-9:
+        return 0.0, 0.0, 0.0, 0.0, along
+    if kappa > kappa_max:
+        return 0.0, 0.0, 0.0, 0.0, -1.0
+    return kappa, ex / off, ey / off, ez / off, 2.0 * math.atan2(off, along) / kappa
+
+
+@numba.njit(cache=True)
+def _shot_samples(px, py, pz, hx, hy, hz, nx, ny, nz, kap, total, n_sh, k, goals, reach, box_lo, box_hi,
+                  sh):  # pragma: no cover - jitted
+    """The shot's samples ``sh[:n_sh]`` (the last one the goal ``k`` itself) and the goal index after them, or
+    -1 when one leaves the box or goal ``k`` is passed before the end (the primitives cover that)."""
+    kk = k
+    for j in range(1, n_sh + 1):
+        x, y, z, _, _, _ = _arc(px, py, pz, hx, hy, hz, nx, ny, nz, kap, total * j / n_sh)
+        if j == n_sh:
+            x, y, z = goals[k, 0], goals[k, 1], goals[k, 2]  # the arc's end is the goal (to rounding)
+        sh[j - 1, 0], sh[j - 1, 1], sh[j - 1, 2] = x, y, z
+        if x < box_lo[0] or y < box_lo[1] or z < box_lo[2] or x > box_hi[0] or y > box_hi[1] or z > box_hi[2]:
+            return -1
+        while kk < goals.shape[0] and ((goals[kk, 0] - x) ** 2 + (goals[kk, 1] - y) ** 2 + (goals[kk, 2] - z) ** 2
+                                       <= reach[kk] * reach[kk]):
+            kk += 1
+        if kk > k and j < n_sh:
+            return -1
+    return kk
+
+
+@numba.njit(cache=True)
+def _shot_pieces(node, k, kk, kap, nx, ny, nz, total, n_pc, goals, NP, NH, NK, NPAR, NKAP, NDIR, NEND, NL, NTURN,
+                 n_nodes):  # pragma: no cover - jitted
+    """Write the shot from ``node`` as ``n_pc`` equal pieces, nodes ``n_nodes`` on (their costs are the
+    caller's): each turns towards its own direction, held in ``NTURN`` as (cos, sin) around its start heading
+    (``NDIR`` -1), the last ending on goal ``k`` with the goal index ``kk``."""
+    px, py, pz = NP[node, 0], NP[node, 1], NP[node, 2]
+    hx, hy, hz = NH[node, 0], NH[node, 1], NH[node, 2]
+    for i in range(n_pc):
+        a = total * i / n_pc
+        _, _, _, tx, ty, tz = _arc(px, py, pz, hx, hy, hz, nx, ny, nz, kap, a)
+        tn = norm3(tx, ty, tz)
+        ca, sa = math.cos(kap * a), math.sin(kap * a)
+        mx, my, mz = ca * nx - sa * hx, ca * ny - sa * hy, ca * nz - sa * hz  # the turning direction there
+        u, w = _basis(tx / tn, ty / tn, tz / tn)
+        q = n_nodes + i
+        NTURN[q, 0] = mx * u[0] + my * u[1] + mz * u[2]
+        NTURN[q, 1] = mx * w[0] + my * w[1] + mz * w[2]
+        x, y, z, ex, ey, ez = _arc(px, py, pz, hx, hy, hz, nx, ny, nz, kap, total * (i + 1) / n_pc)
+        if i == n_pc - 1:
+            x, y, z = goals[k, 0], goals[k, 1], goals[k, 2]
+        en = norm3(ex, ey, ez)
+        NP[q, 0], NP[q, 1], NP[q, 2] = x, y, z
+        NH[q, 0], NH[q, 1], NH[q, 2] = ex / en, ey / en, ez / en
+        NK[q] = kk if i == n_pc - 1 else k
+        NPAR[q] = node if i == 0 else q - 1
+        NKAP[q] = kap
+        NDIR[q] = -1.0
+        NEND[q] = total / n_pc
+        NL[q] = NL[node] + total * (i + 1) / n_pc
+
+
+@numba.njit(cache=True)
+def _shot(node, k, g, goals, reach, kappa_max, ds, step, box_lo, box_hi, max_len, relax, r_start, w_turn, link,
+          r_arm, rep, c_reach, sh, sh_d, line, chain_pts, occ, start, S, origin, bucket, bdims, free, fcell, fdims,
+          cell, hbin, dims, closed, best_g, hist, NP, NH, NK, NG, NPAR, NKAP, NDIR, NEND, NL, NTURN,
+          n_nodes):  # pragma: no cover - jitted
+    """The goal shot from ``node`` (:func:`goal_shot` to goal ``k``), tested as a primitive is (the box,
+    the potential and blocked samples ``ds`` [m] apart or less, the body every other sample and at the end)
+    and written as nodes of at most ``step`` [m] from ``n_nodes`` on (:func:`_shot_pieces`).  Returns the last
+    node written, or -1 when the shot fails, or passes goal ``k`` before its end, or its end state is closed
+    or no cheaper."""
+    px, py, pz = NP[node, 0], NP[node, 1], NP[node, 2]
+    hx, hy, hz = NH[node, 0], NH[node, 1], NH[node, 2]
+    kap, nx, ny, nz, total = goal_shot(px, py, pz, hx, hy, hz, goals[k, 0], goals[k, 1], goals[k, 2], kappa_max)
+    n_sh = int(math.ceil(total / ds))
+    n_pc = max(1, int(math.ceil(total / step - 1e-9)))
+    if total <= 0.0 or NL[node] + total > max_len or n_sh > sh.shape[0] or n_nodes + n_pc > NP.shape[0]:
+        return -1
+    kk = _shot_samples(px, py, pz, hx, hy, hz, nx, ny, nz, kap, total, n_sh, k, goals, reach, box_lo, box_hi, sh)
+    if kk < 0:
+        return -1
+    _shot_pieces(node, k, kk, kap, nx, ny, nz, total, n_pc, goals, NP, NH, NK, NPAR, NKAP, NDIR, NEND, NL, NTURN,
+                 n_nodes)
+    last = n_nodes + n_pc - 1
+    key2 = _key(NP[last, 0], NP[last, 1], NP[last, 2], NH[last, 0], NH[last, 1], NH[last, 2], kk, origin, cell, hbin,
+                dims, goals.shape[0] + 1)
+    if key2 < 0 or key2 in closed:
+        return -1
+    distances_below(sh, n_sh, c_reach, sh_d, occ, start, S, origin, bucket, bdims)
+    cost = 0.0
+    for j in range(1, n_sh + 1):
+        rb = r_start if NL[node] + total * j / n_sh < relax else rep[0]
+        c = cost_at(sh_d[j - 1], sh[j - 1, 0], sh[j - 1, 1], sh[j - 1, 2], rb, rep, origin, free, fcell, fdims)
+        if c == BLOCKED:
+            return -1
+        cost += total / n_sh * (1.0 + c)
+    g2 = g + cost + w_turn * total * kap / kappa_max
+    if key2 in best_g and best_g[key2] <= g2:
+        return -1
+    for j in range(1, n_sh + 1):  # the body, the path behind each sample through the pieces before it
+        if j % 2 == 0 or j == n_sh:
+            along = total * j / n_sh
+            behind = node if along <= total / n_pc else n_nodes + int(math.ceil(along / (total / n_pc))) - 2
+            rb = r_start if NL[node] + along < relax + link else rep[0]
+            if not _body_clear(sh[j - 1, 0], sh[j - 1, 1], sh[j - 1, 2], behind, NP, NPAR, hist, link, rb, r_arm,
+                               line, chain_pts, occ, start, S, origin, bucket, bdims, j == n_sh):
+                return -1
+    for q in range(n_nodes, last + 1):
+        NG[q] = g + (g2 - g) * (q - n_nodes + 1) / n_pc
+    NG[last] = g2
+    best_g[key2] = g2
+    return last
+
+
+@numba.njit(cache=True)
 def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, rep, hist,
                    nav, nav_origin, nav_cell, arm_pts, flange, occ,
                    start, S, origin, bucket, bdims, free, fcell, fdims, box_lo, box_hi,
-                   NP, NH, NK, NG, NPAR, NKAP, NDIR, NEND, NL):  # pragma: no cover - jitted
+                   NP, NH, NK, NG, NPAR, NKAP, NDIR, NEND, NL, NTURN):  # pragma: no cover - jitted
     """Hybrid A* (see the module docstring).  Node arrays are preallocated by the caller.
 
     ``cfg`` = [step, samples, cell, heading_bin, epsilon, w_turn, max_expansions, max_length,
@@ -490,7 +624,9 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
     flange there; a state is expanded only if the arm, carried along with the flange (the sixth chord
     point behind it), keeps ``arm_reach`` from every surface point (no ``arm_pts``: the flange and the
     point one link behind it keep ``arm_clearance`` instead, checked with each primitive).
-    Returns (status, final node, expansions, n_nodes).
+    A goal whose ball is smaller than the samples' spacing (``reach < step / samples``) can fall between
+    two samples of every arc: from a state within ``2 step`` of it, the search also tries the arc that ends
+    exactly on it (:func:`_shot`).  Returns (status, final node, expansions, n_nodes).
     """
     step = cfg[0]
     n_samp = int(cfg[1])
@@ -511,6 +647,8 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
     chain_pts = np.empty((8, 3))  # the chain's points
     samp = np.empty((n_samp, 3))
     samp_d = np.empty(n_samp)
+    sh = np.empty((4 * n_samp + 4, 3))  # a goal shot's samples (at most 2 step * pi / 2 long)
+    sh_d = np.empty(4 * n_samp + 4)
     c_reach = cost_reach(rep)
     n_goals = goals.shape[0]
     cap = NP.shape[0]
@@ -670,6 +808,23 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
                 best_h = h
                 best_node = q
             heapq.heappush(heap, (g2 + eps * h, q))
+        if k < n_goals and reach[k] * n_samp < step and (px - goals[k, 0]) ** 2 + (py - goals[k, 1]) ** 2 + (
+                pz - goals[k, 2]) ** 2 <= 4.0 * step * step:
+            q = _shot(node, k, g, goals, reach, kappa_max, step / n_samp, step, box_lo, box_hi, max_len, relax,
+                      r_start, w_turn, link, r_arm, rep, c_reach, sh, sh_d, line, chain_pts, occ, start, S, origin,
+                      bucket, bdims, free, fcell, fdims, cell, hbin, dims, closed, best_g, hist, NP, NH, NK, NG, NPAR,
+                      NKAP, NDIR, NEND, NL, NTURN, n_nodes)
+            if q >= 0:
+                n_nodes = q + 1
+                kk = NK[q]
+                h = _heuristic(NP[q, 0], NP[q, 1], NP[q, 2], NH[q, 0], NH[q, 1], NH[q, 2], kk, k0, goals, reach, rest,
+                               nav, nav_origin, nav_cell, radius)
+                if NL[q] + _heuristic(NP[q, 0], NP[q, 1], NP[q, 2], NH[q, 0], NH[q, 1], NH[q, 2], kk, -1, goals,
+                                      reach, rest, nav, nav_origin, nav_cell, radius) <= bound:
+                    if h < best_h:
+                        best_h = h
+                        best_node = q
+                    heapq.heappush(heap, (NG[q] + eps * h, q))
     return 2, best_node, expansions, n_nodes
 
 
@@ -740,6 +895,7 @@ class _Buffers:
         self.DIR = np.zeros(cap)
         self.END = np.zeros(cap)
         self.L = np.zeros(cap)
+        self.TURN = np.zeros((cap, 2))
 
 
 _BUFFERS: dict[int, _Buffers] = {}
@@ -809,7 +965,7 @@ def search(smap: SensedMap, start: ArrayLike, heading: ArrayLike, goals: ArrayLi
     status, last, expansions, _ = _search_kernel(
         p0, h0, k0, G, reach, rest, kap, dc, ds, cfg, rep, hist, nav.wave, nav.origin, nav.cell, arm_pts, flange,
         *point_index(smap), free, fcell, fdims,
-        box_lo, box_hi, buf.P, buf.H, buf.K, buf.G, buf.PAR, buf.KAP, buf.DIR, buf.END, buf.L)
+        box_lo, box_hi, buf.P, buf.H, buf.K, buf.G, buf.PAR, buf.KAP, buf.DIR, buf.END, buf.L, buf.TURN)
     if status == PARTIAL and last == 0:
         status = NO_PATH  # no state closer to the goal than the start: no way on
     return _densify(buf, int(status), int(last), int(expansions), p0, h0, k0, dc, ds, sample)
@@ -826,20 +982,22 @@ def navigation_region(p0: NDArray[np.float64], goal: NDArray[np.float64],
 def _densify(buf: _Buffers, status: int, last: int, expansions: int, p0, h0, k0: int, dc, ds,
              sample: float) -> Plan:
     """The plan of the node chain ending at ``last``: its arcs sampled every ``sample`` [m] or less."""
-    P, tans, ks = _densify_kernel(buf.P, buf.H, buf.K, buf.PAR, buf.DIR, buf.KAP, buf.END, last, p0, h0, k0,
-                                  dc, ds, sample)
+    P, tans, ks, exact = _densify_kernel(buf.P, buf.H, buf.K, buf.PAR, buf.DIR, buf.KAP, buf.END, buf.TURN, last,
+                                         p0, h0, k0, dc, ds, sample)
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))])
     cost = float(buf.G[last]) if last > 0 else 0.0
     if status == NO_PATH:
         P, arc = P[:1], arc[:1]
-        tans, ks = tans[:1], ks[:1]
-    return Plan(points=P, tangents=tans, arc=arc, goal_index=ks, status=status, cost=cost, expansions=expansions)
+        tans, ks, exact = tans[:1], ks[:1], exact[:1]
+    return Plan(points=P, tangents=tans, arc=arc, goal_index=ks, status=status, cost=cost, expansions=expansions,
+                stops=arc[exact])
 
 
 @numba.njit(cache=True)
-def _densify_kernel(NP, NH, NK, NPAR, NDIR, NKAP, NEND, last, p0, h0, k0, dc, ds, sample):  # pragma: no cover
-    """Points (N, 3), unit tangents (N, 3) and goal indices (N,) along the arcs from the root to node ``last``:
-    each arc in ``ceil(length / sample)`` equal steps, the start state first."""
+def _densify_kernel(NP, NH, NK, NPAR, NDIR, NKAP, NEND, NTURN, last, p0, h0, k0, dc, ds, sample):  # pragma: no cover
+    """Points (N, 3), unit tangents (N, 3), goal indices (N,) and whether each sample ends a goal shot on its
+    goal (N,) along the arcs from the root to node ``last``: each arc in ``ceil(length / sample)`` equal steps,
+    the start state first."""
     n_chain = 0
     total = 1
     node = last
@@ -855,6 +1013,7 @@ def _densify_kernel(NP, NH, NK, NPAR, NDIR, NKAP, NEND, last, p0, h0, k0, dc, ds
     pts = np.empty((total, 3))
     tans = np.empty((total, 3))
     ks = np.empty(total, dtype=np.int64)
+    exact = np.zeros(total, dtype=np.bool_)
     pts[0] = p0
     tans[0] = h0
     ks[0] = k0
@@ -865,7 +1024,8 @@ def _densify_kernel(NP, NH, NK, NPAR, NDIR, NKAP, NEND, last, p0, h0, k0, dc, ds
         hx, hy, hz = NH[par, 0], NH[par, 1], NH[par, 2]
         m = int(NDIR[node])
         u, w = _basis(hx, hy, hz)
-        nx, ny, nz = dc[m] * u[0] + ds[m] * w[0], dc[m] * u[1] + ds[m] * w[1], dc[m] * u[2] + ds[m] * w[2]
+        c, s = (dc[m], ds[m]) if m >= 0 else (NTURN[node, 0], NTURN[node, 1])  # a primitive, or a goal shot
+        nx, ny, nz = c * u[0] + s * w[0], c * u[1] + s * w[1], c * u[2] + s * w[2]
         length = NEND[node]
         count = max(1, int(math.ceil(length / sample)))
         for j in range(1, count + 1):
@@ -874,5 +1034,6 @@ def _densify_kernel(NP, NH, NK, NPAR, NDIR, NKAP, NEND, last, p0, h0, k0, dc, ds
             tn = norm3(tx, ty, tz)
             tans[i, 0], tans[i, 1], tans[i, 2] = tx / tn, ty / tn, tz / tn
             ks[i] = NK[node] if j == count else NK[par]
+            exact[i] = j == count and m < 0 and NK[node] > NK[par]
             i += 1
-    return pts, tans, ks
+    return pts, tans, ks, exact
