@@ -623,7 +623,7 @@ def test_the_compiled_densify_gives_the_python_loops_samples(slot_y):
 
     plan = _plan(_map(_wall(slot_y)), [1.0, 0.0, 0.05])
     assert plan.status == REACHED and len(plan.points) > 100
-    buf = _BUFFERS[CFG.max_expansions * len(primitives(CFG)[0]) + 1]  # the search's nodes, still there
+    buf = _BUFFERS[CFG.max_expansions * (len(primitives(CFG)[0]) + 3) + 1]  # the search's nodes, still there
     last = int(np.flatnonzero(np.all(buf.P == plan.points[-1], axis=1))[0])  # the plan's last node
     _, dc, ds = primitives(CFG)
     p0, h0 = plan.points[0], plan.tangents[0]

@@ -948,7 +948,7 @@ def search(smap: SensedMap, start: ArrayLike, heading: ArrayLike, goals: ArrayLi
     if hist is None or len(hist) < 2:
         hist = np.array([p0 - 0.5 * h0, p0])
     kap, dc, ds = primitives(config)
-    cap = int(min(config.max_expansions * len(kap) + 1, 2_000_000))
+    cap = int(min(config.max_expansions * (len(kap) + 3) + 1, 2_000_000))  # a state's arcs and a shot's 3 pieces
     buf = _BUFFERS.get(cap)
     if buf is None:
         buf = _BUFFERS[cap] = _Buffers(cap)
