@@ -695,3 +695,49 @@ def test_the_exact_check_measures_only_the_primitives_near_the_robot(client, mon
         d = scene.clearance(probe, 1.0, robot_boxes=_probe_boxes(centre), exact_below=0.01)
         assert d == pytest.approx(0.5e-3, abs=1e-9)
         assert asked == [[k]]
+
+
+@pytest.mark.parametrize("thin", [Cylinder(p0=[-0.2, 0.0, 0.0], p1=[0.2, 0.0, 0.0], radius=0.0005),
+                                  Cylinder(p0=[-0.2, 0.0, 0.0], p1=[0.2, 0.0, 0.0], radius=0.0001),
+                                  Box(center=[0.0, 0.0, 0.0], half_extents=[0.2, 0.2, 0.0001], rpy=[0.3, 0.2, 0.1])])
+def test_shapes_thinner_than_pybullets_margin_are_measured_exactly(client, thin):
+    """PyBullet reads a box or cylinder thinner than its 1 mm margin up to 1.9 mm too close: a probe 0.3 mm
+    from a 1 mm wire read as a 0.4 mm penetration (a review: clean trials reported as collisions).  The
+    scene's clearance, contacts and contact links are the exact ones (the analytic distance of the probe's
+    centre less its radius), a real contact still one, in every direction tried."""
+    scene = Scene.build(client, world_of(thin), SceneOptions())
+    probe = make_probe(client)
+    dist = (lambda x: dist_box(x, thin.center, thin.half_extents, thin.rpy)) if isinstance(thin, Box) else (
+        lambda x: dist_cylinder(x, thin))
+    along = Rotation.from_euler("xyz", thin.rpy).apply([1.0, 0.0, 0.0]) if isinstance(thin, Box) else np.array(
+        [1.0, 0.0, 0.0])
+    rng = np.random.default_rng(11)
+    called_contact = 0
+    for _ in range(12):
+        u = unit(rng.normal(size=3))
+        start = rng.uniform(-0.15, 0.15) * along  # inside the shape
+        for true in (0.3e-3, -0.2e-3):
+            lo, hi = 0.0, 0.5  # bisect the distance along the ray from inside the shape
+            for _ in range(200):
+                mid = 0.5 * (lo + hi)
+                lo, hi = (mid, hi) if dist(start + mid * u) < R_PROBE + true else (lo, mid)
+            place(client, probe, start + lo * u)
+            exact = dist(start + lo * u) - R_PROBE
+            raw = min(pt[8] for b in scene.body_ids for pt in client.getClosestPoints(probe, b, 0.05))
+            called_contact += true > 0 and raw <= 0
+            assert scene.clearance(probe, 0.5, exact_below=0.5) == pytest.approx(exact, abs=1e-12)
+            assert scene.in_contact(probe) == (true < 0)
+            assert scene.touching(probe) == ([(0, pytest.approx(exact, abs=1e-12))] if true < 0 else [])
+            assert bool(scene.contact_links(probe)) == (true < 0)
+    assert called_contact  # PyBullet alone calls some 0.3 mm gap a contact
+
+
+def test_a_robot_with_shapes_the_exact_check_does_not_know_keeps_pybullets_lower_reading(client):
+    """A box-shaped robot part: its distances are PyBullet's alone, so the lower of the two is kept."""
+    scene = Scene.build(client, world_of(Cylinder(p0=[-0.2, 0.0, 0.0], p1=[0.2, 0.0, 0.0], radius=0.0005)))
+    cs = client.createCollisionShape(p.GEOM_BOX, halfExtents=[0.03, 0.03, 0.03])
+    box = client.createMultiBody(0.0, cs, -1, [0.0, 0.0, 0.0305])
+    client.performCollisionDetection()
+    raw = min(pt[8] for b in scene.body_ids for pt in client.getClosestPoints(box, b, 0.05))
+    assert not scene._all_capsules(box)
+    assert scene.clearance(box, 0.5, exact_below=0.5) == pytest.approx(raw, abs=1e-12)

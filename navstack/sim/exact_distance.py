@@ -2,9 +2,10 @@
 
 PyBullet gives boxes and cylinders a collision margin of 1 mm (:data:`MARGIN`) that rounds their corners,
 edges and rims: its shape is the primitive shrunk by the margin, then grown by a ball of that radius.  That
-rounded shape lies inside the true one, so PyBullet's distance is never less than the true distance and
-exceeds it by at most (sqrt 3 - 1) x 1 mm = 0.73 mm at a box corner, 0.41 mm at an edge or a rim (faces,
-spheres and capsules are exact).  A link that far into a corner touches the obstacle unseen.  Setting the
+rounded shape lies inside the true one, so PyBullet's distance exceeds the true distance by at most
+(sqrt 3 - 1) x 1 mm = 0.73 mm at a box corner, 0.41 mm at an edge or a rim (faces, spheres and capsules are
+exact), and is never less, except for a box or cylinder thinner than the margin, which reads up to 1.9 mm
+less (:data:`navstack.sim.scene.THIN_SLACK`).  A link that far into a corner touches the obstacle unseen.  Setting the
 margin to zero is not an option: PyBullet's rays then miss boxes altogether.
 
 So :class:`navstack.sim.scene.Scene` measures again whenever PyBullet's distance is within :data:`MARGIN` of

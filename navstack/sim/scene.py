@@ -44,7 +44,10 @@ PyBullet limitations found (pybullet 3.2.7):
   distance there reads up to 0.73 mm more than the true one (zero margin would make rays miss boxes): every
   distance PyBullet reports within that margin of 0 (or of ``exact_below``, a trial's smallest clearance so
   far) is computed again exactly (:mod:`navstack.sim.exact_distance`), so no contact hides in the rounding
-  and a trial's ``min_clearance`` is exact.
+  and a trial's ``min_clearance`` is exact.  A box or cylinder thinner than that margin reads up to 1.9 mm
+  *less* than the true distance (a 0.3 mm gap to a 1 mm wire read as a 0.4 mm penetration): for a robot of
+  capsules the exact distances alone decide, PyBullet's only choosing when and which primitives to measure
+  (:data:`THIN_SLACK`).
 """
 
 from __future__ import annotations
@@ -82,6 +85,12 @@ distances or in the caller's link boxes can never make a skipped body or stage m
 MESH_MARGIN = 0.0
 """PyBullet's collision margin (m) for mesh bodies: none (the default 1 mm made distances to meshes read 1 mm
 short; module doc)."""
+
+THIN_SLACK = 3e-3
+"""How much lower than the true distance (m), beyond :data:`MARGIN`, PyBullet may read a box or cylinder thinner than
+its 1 mm margin: measured up to 1.74 mm for a 0.1 mm wire and a sphere, 1.9 mm in a review's probes (0 from a
+thickness of 1 mm on).  The exact check of such a scene looks this much farther, so the nearest primitive is
+always among those it measures."""
 
 SWEEP_STEP = 1e-3
 """The most (m) a moving obstacle moves between two of :meth:`Scene.swept_clearance`'s even samples; where a
@@ -211,6 +220,11 @@ class Scene:
     """(len(world.obstacles), 3) [m]: each obstacle's translation from its file pose now (movers')."""
     _primitives: dict[int, NDArray[np.int64]] = field(default_factory=dict, init=False, compare=False, repr=False)
     """body -> the indices in ``world.obstacles`` of the primitives it holds."""
+    _thin_slack: float = field(default=0.0, init=False, compare=False, repr=False)
+    """m: how much more than :data:`MARGIN` PyBullet's distance may read below the true one (:data:`THIN_SLACK`
+    with a box or cylinder thinner than its margin, else 0)."""
+    _capsule_robots: dict[int, bool] = field(default_factory=dict, init=False, compare=False, repr=False)
+    """robot body -> whether every collision shape it has is a capsule or a sphere (:meth:`_all_capsules`)."""
 
     @classmethod
     def build(cls, client: Any, world: World, options: SceneOptions | None = None) -> Scene:
@@ -261,6 +275,7 @@ class Scene:
             if not isinstance(o, Mesh):
                 members[body_of[i]].append(i)
         scene._primitives = {b: np.array(m, dtype=np.int64) for b, m in members.items()}
+        scene._thin_slack = THIN_SLACK if any(_thinner_than_margin(o) for o in world.obstacles) else 0.0
         scene.update(0.0)
         return scene
 
@@ -370,7 +385,7 @@ class Scene:
         cl = self.client
         out: dict[int, float] = {}
         for b in self.body_ids:
-            d = _min_distance(cl, robot_id, b)
+            d = _min_distance(cl, robot_id, b) if self._pybullet_judges(robot_id, b) else math.inf
             if d > 0.0:
                 continue
             members = [i for i, body in enumerate(self.obstacle_body) if body == b]
@@ -457,17 +472,41 @@ class Scene:
         :data:`MARGIN`) are measured again against the robot's ``capsules`` (read from PyBullet if None) wherever
         they may be within ``max(best, 0)`` + :data:`MARGIN` (:mod:`navstack.sim.exact_distance`).  A penetration
         (``best`` <= 0) is measured the same way, as the depth of the capsule's deepest ball below the
-        primitive's surface; PyBullet's own estimate (the shift that would separate the two, up to 8 mm deeper
-        in a measured case) is kept only if the exact test finds no contact, so a contact is never dropped."""
+        primitive's surface.  For a robot made of capsules and spheres alone (:meth:`_all_capsules`: the
+        exact test then covers every pair PyBullet measured, and the nearest primitive is within ``best`` +
+        :data:`MARGIN` + the thin shapes' slack) the exact minimum is the answer: a box or cylinder thinner than
+        PyBullet's 1 mm margin reads up to 1.9 mm *low* (measured: a 1 mm wire 0.3 mm from a link read
+        -0.4 mm, a contact that never happened; :data:`THIN_SLACK`).  For other robots PyBullet's distance is
+        kept where it is lower (its shapes the exact test does not know), unless the exact test finds a
+        penetration: then its depth (PyBullet's estimate, the shift that would separate the two, was up to 8
+        mm deeper in a measured case)."""
         if not best < max(exact_below, 0.0) + MARGIN:
             return best
-        within = max(best, 0.0) + MARGIN
+        within = max(best, 0.0) + MARGIN + self._thin_slack
         near = bodies if bound is None else [b for b, g in zip(bodies, bound, strict=True) if g < within]
         caps = capsules if capsules is not None else _link_capsules(self.client, robot_id, self._capsules)
         exact = [d for _, d in self._exact_distances(caps, near, within)]
+        if exact and self._all_capsules(robot_id):
+            return min(exact)  # every pair that could be nearest, measured exactly: PyBullet's number only chose
         if best <= 0.0 and exact and min(exact) <= 0.0:
             return min(exact)  # a penetration's depth: the deepest ball of a capsule, not PyBullet's estimate
         return min([best] + exact)
+
+    def _all_capsules(self, robot_id: int) -> bool:
+        """Whether every link of ``robot_id`` (and its base) has no collision shape or one capsule or sphere, the
+        shapes :func:`_link_capsules` reads and the exact distances measure (cached per robot)."""
+        known = self._capsule_robots.get(robot_id)
+        if known is None:
+            cl = self.client
+            shapes = (cl.getCollisionShapeData(robot_id, link) for link in range(-1, cl.getNumJoints(robot_id)))
+            known = all(len(s) == 0 or (len(s) == 1 and s[0][2] in (p.GEOM_CAPSULE, p.GEOM_SPHERE)) for s in shapes)
+            self._capsule_robots[robot_id] = known
+        return known
+
+    def _pybullet_judges(self, robot_id: int, body: int) -> bool:
+        """Whether PyBullet's own distances between ``robot_id`` and ``body`` decide a contact: not for a body of
+        primitives against a robot of capsules (:meth:`_all_capsules`), which the exact distances measure."""
+        return not (len(self._primitives.get(body, _NONE)) and self._all_capsules(robot_id))
 
     def _exact_distances(self, capsules: Capsules, bodies: Sequence[int], within: float) -> list[tuple[int, float]]:
         """``(obstacle index, exact signed distance in m)`` of each primitive of ``bodies`` within ``within`` (m)
@@ -485,7 +524,8 @@ class Scene:
         (signed distance <= 0): PyBullet's closest points at distance 0, and each capsule or sphere link
         measured exactly as in :meth:`touching`, so the pictures' red links agree with the ``contacts`` metric."""
         cl = self.client
-        links = {int(pt[3]) for b in self.body_ids for pt in cl.getClosestPoints(robot_id, b, 0.0) if pt[8] <= 0.0}
+        links = {int(pt[3]) for b in self.body_ids if self._pybullet_judges(robot_id, b)
+                 for pt in cl.getClosestPoints(robot_id, b, 0.0) if pt[8] <= 0.0}
         a, b, r = _link_capsules(cl, robot_id, self._capsules)
         for k, (link, *_) in enumerate(self._capsules[robot_id]):
             one = a[k:k + 1], b[k:k + 1], r[k:k + 1]
@@ -498,9 +538,8 @@ class Scene:
         from the last step's contact points and from :meth:`touching`."""
         cl = self.client
         for b in self.body_ids:
-            for pt in cl.getContactPoints(robot_id, b):
-                if pt[8] <= 0.0:
-                    return True
+            if self._pybullet_judges(robot_id, b) and any(pt[8] <= 0.0 for pt in cl.getContactPoints(robot_id, b)):
+                return True
         return bool(self.touching(robot_id))
 
     def remove(self) -> None:
@@ -595,6 +634,16 @@ def _link_capsules(client: Any, body: int, cache: dict[int, list[tuple[int, np.n
         b.append(rot.apply(lb) + pos)
         r.append(radius)
     return np.array(a).reshape(-1, 3), np.array(b).reshape(-1, 3), np.array(r, dtype=np.float64)
+
+
+def _thinner_than_margin(o: Any) -> bool:
+    """Whether ``o`` is a box or cylinder with a half extent, radius or half length below :data:`MARGIN`, which
+    PyBullet's distances read too low (a sphere's margin is its radius: exact; a mesh has none)."""
+    if isinstance(o, Box):
+        return float(np.min(o.half_extents)) < MARGIN
+    if isinstance(o, Cylinder):
+        return min(o.radius, 0.5 * o.length) < MARGIN
+    return False
 
 
 def _min_distance(client: Any, robot_id: int, body: int) -> float:
