@@ -543,6 +543,8 @@ class _Simulation:
             self._advance_goals(tip)
             if self.goal_index >= len(self.goals) and (not self.world.retract or self._retracted(tip)):
                 return "collision" if self.contacts else "reached"
+            if pinned >= pinned_steps:  # after the goals: one reached on this very sample still counts
+                return "collision" if self.contacts else "joint_limit"
             if self.steps >= limit_steps:
                 return "collision" if self.contacts else "timeout"
             cmd = self._plan(tip, F) if self.goal_index < len(self.goals) else self._retract()
@@ -571,8 +573,6 @@ class _Simulation:
             self._record(q, theta_d)
             at_limit = np.any((theta_d <= self.chain.lower + 1e-6) | (theta_d >= self.chain.upper - 1e-6))
             pinned = pinned + 1 if at_limit and np.linalg.norm(tip - x_d) > self.cfg.joint_limit_lag else 0
-            if pinned >= pinned_steps:
-                return "collision" if self.contacts else "joint_limit"
 
     def _plan(self, tip: np.ndarray, F: np.ndarray):
         """The planner's command for the current goal (sensing first, for a sensing planner)."""

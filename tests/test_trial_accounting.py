@@ -334,6 +334,48 @@ def test_joint_limit_needs_a_pinned_joint_and_a_lagging_tip_for_2_s(monkeypatch,
     assert (r.reason, r.steps) == (reason, steps)
 
 
+class _SlidingPinController(_PinController):
+    """:class:`_PinController` whose lathe bed (joint 1) slides on 2 mm per step: the tip keeps moving."""
+
+    def step(self, x_d, xdot_d):
+        self.theta_d[0] += 0.002
+        return self.theta_d.copy()
+
+
+def test_a_goal_reached_on_the_sample_that_ends_the_trial_at_a_joint_limit_counts(monkeypatch, clearances):
+    """The joint limit ends the trial at step 60; a goal the tip first enters on that same sample is reached
+    (the goals are checked before the joint limit, as before the time limit; a review found it checked after).
+    The goal is put where the tip is at step 60 in a first run, with a tolerance below the 2 mm it moves per
+    step, so no earlier sample is inside it."""
+    seq, _ = clearances
+    seq[:] = [0.3]
+
+    class Planner(_Hold):
+        def step(self, dt, tip, heading, reading, goal_index):
+            return TipCommand(self.start + [0.0, 0.0, 0.2], np.zeros(3), False)  # 0.2 m off: the tip lags
+
+    monkeypatch.setattr(navstack.trial, "make_scripted_planner", lambda ctx: Planner(ctx.start))
+    monkeypatch.setattr(navstack.trial, "make_slither_controller",
+                        lambda chain, q0, dt, cfg: _SlidingPinController(q0, 8, UPPER[8]))
+    first = run_trial(_world(time_limit=3.0), planner="scripted", out_dir=None)
+    assert (first.reason, first.steps) == ("joint_limit", 60)
+    sims = []
+    original = navstack.trial._Simulation.run
+    monkeypatch.setattr(navstack.trial._Simulation, "run", lambda self: sims.append(self) or original(self))
+    run_trial(_world(time_limit=3.0), planner="scripted")
+    q = np.array(sims[-1].trajectory.q)
+    world = _world(time_limit=3.0)
+    T0 = world.robot.base.transform()
+    tips = np.array([T0[:3, :3] @ jpl_serpentine().frames(qi)[21, :3, 3] + T0[:3, 3] for qi in q])
+    step = np.linalg.norm(np.diff(tips, axis=0), axis=1)
+    assert len(tips) == 61 and step[-1] > 1e-3  # still moving: 60 steps after the start
+    data = world.to_dict()
+    data["goals"] = [{"position": tips[60].tolist(), "tolerance": 0.5 * step[-1]}]
+    r = run_trial(world_from_dict(data), planner="scripted")
+    assert np.linalg.norm(tips[:60] - tips[60], axis=1).min() > 0.5 * step[-1]  # first inside at step 60
+    assert (r.reason, r.steps, r.goals_reached, r.success) == ("reached", 60, 1, True)
+
+
 @pytest.mark.parametrize("frame", [15, 2], ids=["serpentine J3", "arm shoulder"])
 def test_contact_is_measured_not_simulated(hold_planner, monkeypatch, frame):
     """A sphere through the robot at t = 0: the robot is not pushed out, the depth stays as it was.
