@@ -361,3 +361,27 @@ def test_closing_the_pool_waits_for_the_broken_workers_to_be_stopped(monkeypatch
     assert pool._lanes[0].pool is not old and len(pool._stoppers) == 1
     pool.close(cancel=False)
     assert stopped[:1] == [old] and not any(t.is_alive() for t in pool._stoppers)
+
+
+def test_an_address_where_no_ray_listens_is_bad_input_at_once(tmp_path):
+    """``ray.init`` retried ``--ray-address 127.0.0.1:6379`` without end when no Ray ran there (a review: Ray's
+    retry messages for more than 6 minutes, no error); now refused within seconds, as bad input naming it."""
+    import socket
+
+    from navstack.executors import BackendError
+    from navstack.executors.ray_backend import RayExecutor, _check_reachable
+
+    with socket.socket() as s:  # a port nothing listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    t0 = time.monotonic()
+    with pytest.raises(BackendError, match=rf"at 127\.0\.0\.1:{port}: nothing accepts connections"):
+        RayExecutor(1, address=f"127.0.0.1:{port}")
+    assert time.monotonic() - t0 < 30 and not ray.is_initialized()
+    with socket.socket() as s:  # a listening port passes the check (Ray itself then talks to it)
+        s.bind(("127.0.0.1", 0))
+        s.listen()
+        _check_reachable(f"127.0.0.1:{s.getsockname()[1]}")
+        _check_reachable(f"ray://127.0.0.1:{s.getsockname()[1]}")
+    for other in ("auto", "nonsense", "host:port"):  # left to Ray, which answers these at once
+        _check_reachable(other)

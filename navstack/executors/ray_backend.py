@@ -64,6 +64,26 @@ def _worker_pythonpath() -> str:
     return os.pathsep.join(dict.fromkeys(parts))
 
 
+CONNECT_TIMEOUT = 10.0
+"""Seconds to wait for a TCP connection to ``--ray-address`` before calling it unreachable."""
+
+
+def _check_reachable(address: str, timeout: float = CONNECT_TIMEOUT) -> None:
+    """Raise :class:`ConnectionError` when nothing accepts a TCP connection at ``address`` (``HOST:PORT``, also
+    after ``ray://``): ``ray.init`` retries such an address without end when it is this machine's (a review:
+    ``--ray-address 127.0.0.1:6379`` with no Ray running printed Ray's retries for more than 6 minutes). Other
+    forms (``auto``, a malformed address) are left to Ray, which answers them at once."""
+    host, sep, port = address.removeprefix("ray://").rpartition(":")
+    if not sep or not host or not port.isdigit():
+        return
+    host = host.strip("[]")  # an IPv6 literal
+    try:
+        socket.create_connection((host, int(port)), timeout=timeout).close()
+    except (OSError, ValueError, OverflowError) as exc:
+        raise ConnectionError(f"nothing accepts connections at {address} ({exc}); is a Ray cluster running "
+                              "there (ray start --head)?") from exc
+
+
 class RayExecutor:
     """Trials as Ray tasks; ``jobs`` caps the trials running at once (default: the cluster's CPUs)."""
 
@@ -92,6 +112,7 @@ class RayExecutor:
                 ray.init(address="local", num_cpus=jobs or available_cores(), include_dashboard=False,
                          runtime_env={"env_vars": {"PYTHONPATH": _worker_pythonpath()}}, **quiet)
             else:
+                _check_reachable(address)
                 ray.init(address=address, **quiet)
         except (ConnectionError, RuntimeError, ValueError) as exc:
             where = f"at {address}" if address else "on this machine"
