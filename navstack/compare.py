@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from navstack.report import NO_FAMILY, POOLED, ReportError, family_label, load_results, method_label
+from navstack.report import NO_FAMILY, POOLED, ReportError, family_label, load_results, md_cell, method_label
 
 ALL_FAMILIES = POOLED
 CONFIDENCE = 0.95
@@ -227,7 +227,7 @@ def render_markdown(rows: Sequence[Row], dir_a: str, dir_b: str, records_a: Sequ
         cells = [r.label, r.family, f"{r.k_a}/{r.n_a}", f"{r.k_b}/{r.n_b}", f"{r.k_a / r.n_a:.3f}",
                  f"{r.k_b / r.n_b:.3f}", f"{r.diff:+.3f}", f"[{r.ci_low:+.3f}, {r.ci_high:+.3f}]",
                  _fmt_p(r.p_value), r.test, str(r.a_only) if r.paired else "-", str(r.b_only) if r.paired else "-"]
-        lines.append("| " + " | ".join(cells) + " |")
+        lines.append("| " + " | ".join(md_cell(c) for c in cells) + " |")
     methods_a = {_method(r) for r in records_a}
     methods_b = {_method(r) for r in records_b}
     used_a, used_b = {r.method_a for r in rows}, {r.method_b for r in rows}

@@ -443,9 +443,15 @@ def _fmt(x: float, digits: int = 4) -> str:
     return "-" if math.isnan(x) else f"{x:.{digits}g}"
 
 
+def md_cell(value: Any) -> str:
+    """``value`` as the text of one Markdown table cell: a ``|`` escaped and line breaks made spaces, so a family
+    or method named with them (a world file's ``family`` may be any non-empty string) stays in its cell."""
+    return " ".join(str(value).replace("|", "\\|").splitlines())
+
+
 def _table(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> list[str]:
-    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    out += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    out = ["| " + " | ".join(md_cell(c) for c in header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    out += ["| " + " | ".join(md_cell(c) for c in row) + " |" for row in rows]
     return out
 
 

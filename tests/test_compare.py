@@ -298,3 +298,13 @@ def test_a_family_only_one_sweep_ran_is_named_under_the_table():
     assert "Families only in B for slither/field (no row of their own; counted in (all)): pipe-rack\n" in text
     same = compare.render_markdown(compare.compare(a, a), "A", "A", a, a)
     assert "Families only in" not in same
+
+
+def test_a_family_named_with_a_pipe_or_a_line_break_stays_in_its_cell():
+    """As in the report: ``|`` or a line break in a family broke the comparison table's rows (a review)."""
+    a = sweep_records({("pipes|racks", 0): True, ("two\nlines", 1): False})
+    text = compare.render_markdown(compare.compare(a, a), "A", "B", a, a)
+    rows = [line for line in text.splitlines() if line.startswith("| ")]
+    assert len(rows) == 1 + 3  # header, two families, (all)
+    assert all(r.replace("\\|", "").count("|") == 13 for r in rows), rows
+    assert "| slither/field | pipes\\|racks |" in text and "| slither/field | two lines |" in text

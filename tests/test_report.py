@@ -456,3 +456,22 @@ def test_a_family_spelled_like_a_label_is_not_merged_with_records_without_one():
     method = recs[0]["controller"], recs[0]["planner"]
     n_none = sum(1 for r in recs if (r["controller"], r["planner"]) == method)
     assert s.by_family[("(none)", method)].n == n_none and s.by_family[('"(none)"', method)].successes == n_none
+
+
+def test_a_family_named_with_a_pipe_or_a_line_break_stays_in_its_cell(tmp_path):
+    """A world file's ``family`` may be any non-empty string; ``|`` and line breaks in it split or ended the
+    report's table rows (a review: ``"pipes|racks"`` gave a row of three cells under a header of two)."""
+    base = synthetic_records()[0]
+    recs = [dict(base, trial_id=f"t{i}", family=fam) for i, fam in enumerate(("pipes|racks", "two\nlines", "plain"))]
+    write_jsonl(tmp_path / "results.jsonl", recs)
+    text = write_report(tmp_path, plots=False).read_text()
+    lines = text.splitlines()
+    for i, line in enumerate(lines):
+        if line.startswith("|---"):  # every row of every table has the header's number of cells
+            n = line.count("|")
+            for row in lines[i + 1:]:
+                if not row.startswith("|"):
+                    break
+                assert row.replace("\\|", "").count("|") == n, row
+    assert "\n| pipes\\|racks | " in text and "\n| two lines | " in text
+
