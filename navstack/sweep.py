@@ -593,8 +593,25 @@ def _check_world_hashes(sweep_path: Path, stored: Any, now: dict[str, str | None
                          f"trials ran the earlier file. Put the earlier file back to resume, or choose a new --out")
 
 
-def _load_done(results: Path, ids: set[str]) -> tuple[dict[str, dict[str, Any]], bool]:
-    """Finished records by trial_id; drops (and cuts off) a truncated last line; errors on foreign ids."""
+SPEC_KEYS = ("controller", "planner", "seed", "family", "difficulty", "index", "world_id", "world_file",
+             "world_seed")
+"""The fields of a results line that its :class:`TrialSpec` fixes: a resumed line must agree with the spec of its
+``trial_id`` on each it holds (a line of another sweep configuration, e.g. another ``--seed``, has the same
+``trial_id`` but other seeds and worlds)."""
+
+
+def _spec_mismatch(rec: dict[str, Any], spec: TrialSpec) -> str | None:
+    """Why ``rec`` is not a line of ``spec``'s trial, or None."""
+    want = spec.to_dict()
+    for key in SPEC_KEYS:
+        if key in rec and (rec[key] != want[key] or isinstance(rec[key], bool) != isinstance(want[key], bool)):
+            return f"'{key}' is {rec[key]!r:.80}, but this sweep's trial {spec.trial_id!r} has {want[key]!r:.80}"
+    return None
+
+
+def _load_done(results: Path, ids: set[str] | dict[str, TrialSpec]) -> tuple[dict[str, dict[str, Any]], bool]:
+    """Finished records by trial_id; drops (and cuts off) a truncated last line; errors on foreign ids and, when
+    ``ids`` maps each id to its spec, on a line that disagrees with its spec (:data:`SPEC_KEYS`)."""
     rf = read_results(results)
     if rf.truncated_tail:
         os.truncate(results, rf.valid_bytes)
@@ -612,6 +629,10 @@ def _load_done(results: Path, ids: set[str]) -> tuple[dict[str, dict[str, Any]],
             raise SweepError(f"{results}, line {line}: trial_id {tid!r} is not part of this sweep")
         if tid in done:
             raise SweepError(f"{results}, line {line}: trial_id {tid!r} recorded twice")
+        why = _spec_mismatch(rec, ids[tid]) if isinstance(ids, dict) else None
+        if why is not None:
+            raise SweepError(f"{results}, line {line}: not a line of this sweep: {why} (a line of another sweep "
+                             "configuration, or edited); remove it to run that trial again, or choose a new --out")
         done[tid] = rec
     return done, rf.truncated_tail
 
@@ -779,7 +800,7 @@ class _Run:
 
     def sweep(self, specs: list[TrialSpec]) -> SweepSummary:
         results = self.out / RESULTS_NAME
-        done, dropped = _load_done(results, {s.trial_id for s in specs})
+        done, dropped = _load_done(results, {s.trial_id: s for s in specs})
         todo = deque(s for s in specs if s.trial_id not in done)
         self.summary = SweepSummary(out_dir=self.out, results_path=results, total=len(specs), skipped=len(done),
                                     dropped_truncated_line=dropped, recorded=len(done))

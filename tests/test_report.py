@@ -475,3 +475,48 @@ def test_a_family_named_with_a_pipe_or_a_line_break_stays_in_its_cell(tmp_path):
                 assert row.replace("\\|", "").count("|") == n, row
     assert "\n| pipes\\|racks | " in text and "\n| two lines | " in text
 
+
+def test_a_line_of_another_sweep_configuration_is_refused_beside_its_sweep_json(tmp_path):
+    """A results line whose trial_id is the sweep's but whose seed or method is another's (a line of the same
+    worlds run with another --seed, an edited line) was reported as a trial of the sweep (a review)."""
+    from navstack import compare
+    from navstack.sweep import SWEEP_FORMAT, SweepConfig, build_specs
+
+    worlds = tmp_path / "worlds"
+    worlds.mkdir()
+    for i in range(2):
+        (worlds / f"w{i}.json").write_text(json.dumps({"name": f"w{i}", "family": "truss"}))
+    specs = build_specs(SweepConfig(worlds_dir=str(worlds), seed=0))
+    other = build_specs(SweepConfig(worlds_dir=str(worlds), seed=1))
+
+    def line(spec, **change):
+        rec = {"trial_id": spec.trial_id, "world": spec.world_id, "seed": spec.seed, "controller": spec.controller,
+               "planner": spec.planner, "success": True, "reason": "reached", "family": spec.family,
+               "difficulty": spec.difficulty, "index": spec.index, "world_id": spec.world_id,
+               "world_file": spec.world_file, "world_seed": spec.world_seed}
+        return rec | change
+
+    def sweep_dir(name, recs):
+        d = tmp_path / name
+        d.mkdir()
+        (d / "sweep.json").write_text(json.dumps({"format": SWEEP_FORMAT, "trials": [s.to_dict() for s in specs]}))
+        write_jsonl(d / "results.jsonl", recs)
+        return d
+
+    good = sweep_dir("good", [line(s) for s in specs])
+    write_report(good, plots=False)
+    for name, recs, needle in (
+            ("seed", [line(specs[0]), line(other[1])], r"line 2: not a line of the sweep in .*'seed' is"),
+            ("edited", [line(specs[0], controller="tip-only")], r"line 1: .*'controller' is 'tip-only'"),
+            ("foreign", [line(specs[0]), line(specs[1], trial_id="x__000__slither__field")],
+             r"line 2: .*trial_id 'x__000__slither__field' is not a trial of")):
+        bad = sweep_dir(name, recs)
+        with pytest.raises(ReportError, match=needle):
+            write_report(bad, plots=False)
+        with pytest.raises(ReportError, match=needle):
+            compare.run_compare(good, bad)
+    # without a sweep.json (hand-made results) the lines are reported as they are
+    loose = tmp_path / "loose"
+    loose.mkdir()
+    write_jsonl(loose / "results.jsonl", [line(specs[0]), line(other[1])])
+    write_report(loose, plots=False)

@@ -923,3 +923,31 @@ def test_a_sweep_of_more_than_a_million_trials_is_refused_before_it_is_listed(tm
         build_specs(SweepConfig(worlds_dir=str(folder), count=MAX_TRIALS // 2 + 1))
     assert main(["trials", "--generate", "truss", "--count", "100000000", "--out", str(tmp_path / "o")]) == 2
     assert "more than the 1,000,000 one sweep may hold" in capsys.readouterr().err
+
+
+def test_resume_refuses_a_line_of_another_sweep_configuration(tmp_path):
+    """A line whose trial_id is in the sweep but whose seed, world or method is another's (a line of the same
+    worlds run with another --seed, or an edited line) is not counted as that trial: it would be reported as a
+    result of this sweep, and its own trial never run (a review: a --seed 1 line in a --seed 0 sweep, and a
+    slither line edited to say tip-only, were both taken as finished and reported)."""
+    folder = write_worlds(tmp_path / "in", 2)
+    specs0 = build_specs(SweepConfig(worlds_dir=str(folder), seed=0))
+    specs1 = build_specs(SweepConfig(worlds_dir=str(folder), seed=1))
+    assert [s.trial_id for s in specs0] == [s.trial_id for s in specs1]
+    run_sweep(specs0, tmp_path / "s0", jobs=1, runner=fake_runner, progress=False)
+    run_sweep(specs1, tmp_path / "s1", jobs=1, runner=fake_runner, progress=False)
+    lines0 = (tmp_path / "s0" / "results.jsonl").read_text().splitlines(keepends=True)
+    lines1 = (tmp_path / "s1" / "results.jsonl").read_text().splitlines(keepends=True)
+    mixed = _partial_copy(tmp_path / "s0", tmp_path / "mixed", [lines0[0], lines1[1]])
+    with pytest.raises(SweepError, match=r"results\.jsonl, line 2: not a line of this sweep: 'seed' is"):
+        run_sweep(specs0, mixed, jobs=1, runner=fake_runner, progress=False)
+    edited = _partial_copy(tmp_path / "s0", tmp_path / "edited",
+                           [lines0[0].replace('"controller": "slither"', '"controller": "tip-only"')])
+    with pytest.raises(SweepError, match=r"line 1: not a line of this sweep: 'controller' is 'tip-only'"):
+        run_sweep(specs0, edited, jobs=1, runner=fake_runner, progress=False)
+    # the sweep's own lines still resume
+    own = _partial_copy(tmp_path / "s0", tmp_path / "own", lines0[:1])
+    summary = run_sweep(specs0, own, jobs=1, runner=fake_runner, progress=False)
+    assert summary.skipped == 1 and summary.complete
+    assert without_wall_time(lines_of(own / "results.jsonl")) == \
+        without_wall_time(lines_of(tmp_path / "s0" / "results.jsonl"))
