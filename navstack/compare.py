@@ -11,6 +11,10 @@ success rates, their difference ``B - A`` with a 95 % confidence interval, and a
 * **unpaired** otherwise: Fisher's exact test (``scipy.stats.fisher_exact``) and Newcombe's hybrid score
   interval (method 10 of Newcombe 1998, Stat. Med. 17:873).
 
+A row whose sweeps share only some of their trials is unpaired (the spec pairs identical trial sets); as
+Fisher's test then takes the shared trials for independent samples, a line under the table gives McNemar's
+exact test on the shared trials alone.
+
 Methods are matched by name; when each sweep holds a single method and the names differ (a sweep of planner
 ``field`` against one of ``scripted``), those two are compared. The Wilson intervals are scipy's
 (``binomtest(k, n).proportion_ci(method="wilson")``).
@@ -122,6 +126,9 @@ class Row:
     ci_low: float
     ci_high: float
     p_value: float
+    shared: tuple[int, int, int] = (0, 0, 0)
+    """An unpaired row's trials run by both sweeps (a partial overlap): how many, and how many of them only A,
+    only B succeeded in; (0, 0, 0) for paired rows and for sweeps with no trial in common."""
 
     @property
     def test(self) -> str:
@@ -157,8 +164,11 @@ def compare_rows(recs_a: Sequence[Mapping[str, Any]], recs_b: Sequence[Mapping[s
     else:
         lo, hi = newcombe_unpaired(k_a, n_a, k_b, n_b)
         p = fisher_exact_p(k_a, n_a, k_b, n_b)
+    common = by_a.keys() & by_b.keys() if not paired else set()
+    shared = (len(common), sum(by_a[k]["success"] is True and by_b[k]["success"] is not True for k in common),
+              sum(by_b[k]["success"] is True and by_a[k]["success"] is not True for k in common))
     return Row(method_a, method_b, family, n_a, k_a, n_b, k_b, paired, a_only, b_only, k_b / n_b - k_a / n_a,
-               lo, hi, p)
+               lo, hi, p, shared)
 
 
 def _method(r: Mapping[str, Any]) -> Method:
@@ -234,10 +244,28 @@ def render_markdown(rows: Sequence[Row], dir_a: str, dir_b: str, records_a: Sequ
     for name, left in (("A", sorted(methods_a - used_a)), ("B", sorted(methods_b - used_b))):
         if left:
             lines += ["", f"Only in {name} (not compared): " + ", ".join(method_label(m) for m in left)]
+    lines += _partly_shared(rows)
     lines += _one_sided_families(rows, records_a, records_b)
     if plot:
         lines += ["", f"![Differences B - A with 95 % intervals]({plot})"]
     return "\n".join(lines) + "\n"
+
+
+def _partly_shared(rows: Sequence[Row]) -> list[str]:
+    """Lines naming the unpaired rows whose sweeps share some trials (only identical trial sets are paired): Fisher's
+    test takes the shared trials as independent samples, which they are not, so its p-value can mislead either
+    way; McNemar's exact test on the shared trials alone is given beside it."""
+    out = []
+    for r in rows:
+        n, a_only, b_only = r.shared
+        if n:
+            out.append(f"- {md_cell(r.label)}, {md_cell(r.family)}: {n} of the trials (A {r.n_a}, B {r.n_b}) were run "
+                       f"by both; on those alone, A only {a_only}, B only {b_only}, McNemar exact "
+                       f"p = {_fmt_p(mcnemar_exact(a_only, b_only))}")
+    if out:
+        out = ["", "Unpaired rows whose sweeps share some trials (a row is paired only when both ran the same "
+                   "trials; Fisher's test takes the shared ones as independent, which they are not):"] + out
+    return out
 
 
 def _one_sided_families(rows: Sequence[Row], records_a: Sequence[Mapping[str, Any]],

@@ -138,6 +138,23 @@ def test_different_trials_are_unpaired():
     assert not compare.compare(a, b[:10])[0].paired
 
 
+def test_a_partial_overlap_is_unpaired_and_named_with_mcnemar_on_the_shared_trials():
+    """20 trials in A, 19 of them in B (a review: Fisher's p over all of them read 0.0083 where McNemar's on the
+    shared 19 reads 0.0156): the row stays unpaired, as the spec asks, and the Markdown names the overlap."""
+    a = sweep_records({("truss", i): i < 14 for i in range(20)})
+    b = sweep_records({("truss", i): i < 5 for i in range(19)})
+    row = compare.compare(a, b)[0]
+    assert not row.paired and row.shared == (19, 9, 0)
+    assert row.p_value == pytest.approx(fisher_exact_p(14, 20, 5, 19))
+    md = compare.render_markdown(compare.compare(a, b), "A", "B", a, b)
+    assert "19 of the trials (A 20, B 19) were run by both" in md
+    assert f"A only 9, B only 0, McNemar exact p = {compare._fmt_p(mcnemar_exact(9, 0))}" in md
+    assert compare.compare(a, a)[0].shared == (0, 0, 0)  # paired: no note
+    assert "were run by both" not in compare.render_markdown(compare.compare(a, a), "A", "B", a, a)
+    other = sweep_records({("truss", i): i < 5 for i in range(20, 39)})  # no trial in common: no note
+    assert compare.compare(a, other)[0].shared == (0, 0, 0)
+
+
 def test_methods_matched_by_name_or_single_against_single():
     a = sweep_records({("truss", i): True for i in range(4)}, planner="field")
     b = sweep_records({("truss", i): i < 2 for i in range(4)}, planner="scripted")
