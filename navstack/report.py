@@ -231,8 +231,8 @@ PROVENANCE_KEYS = ("navstack", "commit", "python", "pybullet", "numpy", "host", 
 """The ``provenance`` fields of interfaces.md section 4: each a string or null."""
 
 
-def _check_record(rec: Any) -> str | None:
-    """Why ``rec`` cannot be summarised, or None."""
+def check_record(rec: Any) -> str | None:
+    """Why ``rec`` cannot be summarised (a malformed or self-contradicting results line), or None."""
     if not isinstance(rec, Mapping):
         return f"expected a JSON object, got {type(rec).__name__}"
     for key in ("controller", "planner", "reason"):
@@ -312,7 +312,7 @@ def _check_records(records: Sequence[Mapping[str, Any]], where, short=None) -> N
     short = short or where
     seen: dict[str, int] = {}
     for i, rec in enumerate(records):
-        why = _check_record(rec)
+        why = check_record(rec)
         if why is not None:
             raise ReportError(f"{where(i)}: {why}")
         tid = rec.get("trial_id")

@@ -612,6 +612,8 @@ def _spec_mismatch(rec: dict[str, Any], spec: TrialSpec) -> str | None:
 def _load_done(results: Path, ids: set[str] | dict[str, TrialSpec]) -> tuple[dict[str, dict[str, Any]], bool]:
     """Finished records by trial_id; drops (and cuts off) a truncated last line; errors on foreign ids and, when
     ``ids`` maps each id to its spec, on a line that disagrees with its spec (:data:`SPEC_KEYS`)."""
+    from navstack.report import check_record
+
     rf = read_results(results)
     if rf.truncated_tail:
         os.truncate(results, rf.valid_bytes)
@@ -633,6 +635,10 @@ def _load_done(results: Path, ids: set[str] | dict[str, TrialSpec]) -> tuple[dic
         if why is not None:
             raise SweepError(f"{results}, line {line}: not a line of this sweep: {why} (a line of another sweep "
                              "configuration, or edited); remove it to run that trial again, or choose a new --out")
+        why = check_record(rec)  # what report and compare would refuse is no finished trial either
+        if why is not None:
+            raise SweepError(f"{results}, line {line}: {why}; remove the line to run that trial again, or choose a "
+                             "new --out")
         done[tid] = rec
     return done, rf.truncated_tail
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -41,7 +42,7 @@ def fake_outcome(world_name: str, controller: str, seed: int) -> dict:
         "goals_reached": 2 if success else 1, "sim_time": 10.0 + seed % 97 / 10.0, "steps": 1000 + seed % 89,
         "wall_time": 0.05,
         "metrics": {"tip_error_max": 0.001 * (seed % 5), "slither_deviation_max": 0.002 * (seed % 7),
-                    "min_clearance": 0.01 * (seed % 11) - 0.02, "contacts": 0 if success else 3},
+                    "min_clearance": 0.01 * (seed % 11) - (0.0 if success else 0.02), "contacts": 0 if success else 3},
     }
 
 
@@ -945,6 +946,12 @@ def test_resume_refuses_a_line_of_another_sweep_configuration(tmp_path):
                            [lines0[0].replace('"controller": "slither"', '"controller": "tip-only"')])
     with pytest.raises(SweepError, match=r"line 1: not a line of this sweep: 'controller' is 'tip-only'"):
         run_sweep(specs0, edited, jobs=1, runner=fake_runner, progress=False)
+    # a line report would refuse (a mistyped field) is no finished trial either (a review: resume took it, then
+    # report refused the folder)
+    typed = _partial_copy(tmp_path / "s0", tmp_path / "typed",
+                          [re.sub(r'"steps": (\d+)', r'"steps": "\1"', lines0[0])])
+    with pytest.raises(SweepError, match=r"line 1: field 'steps' must be an integer >= 0 or null, got '\d+'; remove"):
+        run_sweep(specs0, typed, jobs=1, runner=fake_runner, progress=False)
     # the sweep's own lines still resume
     own = _partial_copy(tmp_path / "s0", tmp_path / "own", lines0[:1])
     summary = run_sweep(specs0, own, jobs=1, runner=fake_runner, progress=False)
