@@ -14,9 +14,12 @@ heading the plan's tangent.  What this module decides is the speed ``v``:
 * scaled down while the actual tip lags the command by more than ``max_lead / 2`` (zero at
   ``max_lead``): the command never runs away from a robot that cannot follow.
 
-A step that would pass one of the plan's ``stops`` (a goal lying exactly on the path, where a goal
-shot ends) ends on it instead, at the speed it had: the tip is then on the goal at a control step, so
-a goal whose tolerance is below the step's ``v dt`` (2 mm at ``v_max``) is not stepped over.
+The plan's ``stops`` (goals lying exactly on the path, where a goal shot ends) are landed on: within
+``stop_window`` steps of one, the command moves in equal steps of at most ``v dt`` so that one ends on it
+(a speed change of at most ``v / stop_window``, below ``accel dt``), and there it waits while the tip lags
+by more than ``stop_lag`` (at most ``stop_hold``): the tip is then on the goal at a control step, so a goal
+whose tolerance is below the step's ``v dt`` (2 mm at ``v_max``) is neither stepped over nor passed by a
+lagging tip.
 
 Units: metres, seconds.
 """
@@ -45,6 +48,10 @@ class SteeringConfig:
         slow_clearance: clearance below which the speed falls [m].
         stop_clearance: clearance at which the speed is ``v_min`` [m].
         max_lead: the command waits when it leads the actual tip by this much [m].
+        stop_window: a stop (a goal on the plan) this many steps ahead or fewer is reached in whole steps
+            of equal length, at most the speed's, so one step ends on it [count].
+        stop_lag, stop_hold: on a stop, the command waits while the tip lags it by more than ``stop_lag``
+            [m], at most ``stop_hold`` [s] (the tip, not only the command, must be on the goal).
     """
 
     v_max: float = 0.06
@@ -53,9 +60,15 @@ class SteeringConfig:
     slow_clearance: float = 0.05
     stop_clearance: float = 0.01
     max_lead: float = 0.03
+    stop_window: int = 24
+    stop_lag: float = 5e-5
+    stop_hold: float = 2.0
 
     def __post_init__(self) -> None:
-        for name in ("v_max", "v_min", "accel", "slow_clearance", "stop_clearance", "max_lead"):
+        if isinstance(self.stop_window, bool) or not isinstance(self.stop_window, int) or self.stop_window < 1:
+            raise ValueError(f"SteeringConfig.stop_window must be an integer >= 1, got {self.stop_window!r}")
+        for name in ("v_max", "v_min", "accel", "slow_clearance", "stop_clearance", "max_lead", "stop_lag",
+                     "stop_hold"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
                 raise ValueError(f"SteeringConfig.{name} must be a positive number, got {v!r}")
@@ -73,6 +86,7 @@ class PlanFollower:
         self.config = config
         self.s = 0.0
         self.v = float(speed)
+        self.held = 0.0  # [s] waited on the current stop
 
     @property
     def remaining(self) -> float:
@@ -102,14 +116,33 @@ class PlanFollower:
         self.v = min(max(target, self.v - cfg.accel * dt), self.v + cfg.accel * dt)
         if self.v < 1e-4 * cfg.v_max:
             self.v = 0.0
-        s_new = min(self.s + self.v * dt, self.plan.length)
         stops = self.plan.stops
+        if len(stops) and self._wait_on_stop(dt, lag):
+            p, t = self.plan.state(self.s)
+            return p, t * 0.0
+        s_new = min(self.s + self.v * dt, self.plan.length)
         i = int(np.searchsorted(stops, self.s, side="right"))
-        if i < len(stops) and stops[i] < s_new:  # a goal lies exactly here: land on it, then go on at speed
-            s_new = float(stops[i])
+        ahead = float(stops[i]) - self.s if i < len(stops) and stops[i] < self.plan.length else math.inf
+        # (a stop at the plan's end is landed on by the speed rule that stops there)
+        if 0.0 < ahead <= cfg.stop_window * self.v * dt:  # whole steps onto the stop, each at most v dt
+            steps = math.ceil(ahead / (self.v * dt) - 1e-9)
+            s_new = float(stops[i]) if steps <= 1 else self.s + ahead / steps
             v = (s_new - self.s) / dt
         else:
             self.v = v = (s_new - self.s) / dt
         self.s = s_new
         p, t = self.plan.state(self.s)
         return p, t * v
+
+    def _wait_on_stop(self, dt: float, lag: float) -> bool:
+        """On a stop: whether to wait there this step (the tip lags by more than ``stop_lag``, for at most
+        ``stop_hold`` in all); the speed starts again from rest."""
+        cfg = self.config
+        on = bool(np.any(self.plan.stops == self.s))
+        if on and lag > cfg.stop_lag and self.held < cfg.stop_hold:
+            self.held += dt
+            self.v = 0.0
+            return True
+        if not on:
+            self.held = 0.0
+        return False
