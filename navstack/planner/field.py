@@ -48,6 +48,11 @@ from navstack.planner.steering import PlanFollower, SteeringConfig
 from navstack.planner.types import TipCommand
 from navstack.retreat import Retreat
 
+RELAXED_GOAL_FRACTION = 0.85
+"""The goal ball (fraction of each tolerance) of a full search's second try when the first, at the search's own
+``goal_fraction``, reaches no plan: a goal at the edge of the turning limit (15.6 mm from any path of radius
+0.25 m, tolerance 20 mm) is then passed within its tolerance instead of stalling the planner."""
+
 __all__ = ["FieldPlanner", "FieldPlannerConfig"]
 
 
@@ -180,6 +185,14 @@ class FieldPlanner:
         if plan.status != REACHED and self._nav is not None and self._nav[1] != self.map.version:
             plan = search(self.map, p, h, self.goals, self.tolerances, k, scfg, cfg.repulsion,
                           history=history, nav=self._navigation(p, k, True), arm=self.arm)  # the map has grown
+        if plan.status != REACHED and budget is None and scfg.goal_fraction < RELAXED_GOAL_FRACTION:
+            # a goal at the edge of what the turning limit allows may be passed within its tolerance but
+            # not within the search's smaller ball: one more try with the larger one
+            relaxed = search(self.map, p, h, self.goals, self.tolerances, k,
+                             replace(scfg, goal_fraction=RELAXED_GOAL_FRACTION), cfg.repulsion, history=history,
+                             nav=self._navigation(p, k, False), arm=self.arm)
+            if relaxed.status == REACHED:
+                return relaxed
         return plan
 
     def _history(self, end: float, length: float, spacing: float = 0.02) -> NDArray[np.float64]:
