@@ -431,24 +431,21 @@ def _check_against_sweep(path: Path, records: Sequence[Mapping[str, Any]], lines
     one of its trials: a ``trial_id`` it does not list, or one whose seed, world or method is another's
     (:data:`navstack.sweep.SPEC_KEYS`; a line of the same worlds run with another ``--seed`` has the same
     ``trial_id``). A ``sweep.json`` that cannot be read as one is left alone: the lines are reported as they are."""
-    import json
-
-    from navstack.sweep import SWEEP_FORMAT, SWEEP_NAME, SweepError, TrialSpec, _spec_mismatch
+    from navstack.sweep import SWEEP_NAME, SweepError, TrialSpec, read_sweep_file, spec_mismatch
 
     sweep_path = path.parent / SWEEP_NAME
+    if not sweep_path.exists():
+        return
     try:
-        stored = json.loads(sweep_path.read_text(encoding="utf-8"))
-        if not isinstance(stored, dict) or stored.get("format") != SWEEP_FORMAT:
-            return
-        specs = {spec.trial_id: spec for spec in map(TrialSpec.from_dict, stored["trials"])}
-    except (OSError, ValueError, RecursionError, KeyError, TypeError, AttributeError, SweepError):
+        specs = {spec.trial_id: spec for spec in map(TrialSpec.from_dict, read_sweep_file(sweep_path)["trials"])}
+    except (SweepError, KeyError, TypeError, AttributeError, ValueError):
         return
     for rec, line in zip(records, lines, strict=True):
         tid = rec.get("trial_id")
         if tid is None:
             continue
         spec = specs.get(tid)
-        why = f"trial_id {tid!r} is not a trial of" if spec is None else _spec_mismatch(dict(rec), spec)
+        why = f"trial_id {tid!r} is not a trial of" if spec is None else spec_mismatch(dict(rec), spec)
         if why is not None:
             raise ReportError(f"{path}, line {line}: not a line of the sweep in {sweep_path}: {why}"
                               + (f" {sweep_path}" if spec is None else "")

@@ -532,6 +532,19 @@ def _validated_result(spec: TrialSpec, result: Any) -> dict[str, Any]:
     return result
 
 
+def read_sweep_file(sweep_path: Path) -> dict[str, Any]:
+    """The stored sweep description (``sweep.json``) at ``sweep_path``; :class:`SweepError` if it cannot be read
+    or is not a :data:`SWEEP_FORMAT` file with a list of trials."""
+    try:
+        stored = json.loads(sweep_path.read_text(encoding="utf-8"))
+    except (OSError, ValueError, RecursionError) as exc:
+        raise SweepError(f"{sweep_path}: unreadable sweep description ({exc})") from exc
+    if not isinstance(stored, dict) or stored.get("format") != SWEEP_FORMAT or not isinstance(stored.get("trials"),
+                                                                                             list):
+        raise SweepError(f"{sweep_path}: not a {SWEEP_FORMAT} file")
+    return stored
+
+
 def _prepare_dir(out_dir: Path, specs: Sequence[TrialSpec], config: dict[str, Any] | None,
                  command: str | None) -> None:
     """Create ``out_dir`` and its ``sweep.json``, or check that the stored sweep is the same one."""
@@ -542,13 +555,7 @@ def _prepare_dir(out_dir: Path, specs: Sequence[TrialSpec], config: dict[str, An
     wanted = [s.to_dict() for s in specs]
     hashes = _world_hashes(specs)
     if sweep_path.exists():
-        try:
-            stored = json.loads(sweep_path.read_text(encoding="utf-8"))
-        except (OSError, ValueError) as exc:
-            raise SweepError(f"{sweep_path}: unreadable sweep description ({exc})") from exc
-        if not isinstance(stored, dict) or stored.get("format") != SWEEP_FORMAT \
-                or not isinstance(stored.get("trials"), list):
-            raise SweepError(f"{sweep_path}: not a {SWEEP_FORMAT} file")
+        stored = read_sweep_file(sweep_path)
         have = stored["trials"]
         if have != wanted:
             first = next((i for i, (a, b) in enumerate(zip(have, wanted, strict=False)) if a != b),
@@ -600,7 +607,7 @@ SPEC_KEYS = ("controller", "planner", "seed", "family", "difficulty", "index", "
 ``trial_id`` but other seeds and worlds)."""
 
 
-def _spec_mismatch(rec: dict[str, Any], spec: TrialSpec) -> str | None:
+def spec_mismatch(rec: dict[str, Any], spec: TrialSpec) -> str | None:
     """Why ``rec`` is not a line of ``spec``'s trial, or None."""
     want = spec.to_dict()
     for key in SPEC_KEYS:
@@ -631,7 +638,7 @@ def _load_done(results: Path, ids: set[str] | dict[str, TrialSpec]) -> tuple[dic
             raise SweepError(f"{results}, line {line}: trial_id {tid!r} is not part of this sweep")
         if tid in done:
             raise SweepError(f"{results}, line {line}: trial_id {tid!r} recorded twice")
-        why = _spec_mismatch(rec, ids[tid]) if isinstance(ids, dict) else None
+        why = spec_mismatch(rec, ids[tid]) if isinstance(ids, dict) else None
         if why is not None:
             raise SweepError(f"{results}, line {line}: not a line of this sweep: {why} (a line of another sweep "
                              "configuration, or edited); remove it to run that trial again, or choose a new --out")
