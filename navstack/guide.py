@@ -10,7 +10,7 @@ each goal.
 Three users:
 
 * :class:`navstack.scripted.ScriptedPlanner` (the blind baseline) follows it;
-* :class:`navstack.planner.PotentialFieldPlanner` pursues it as the *guide*
+* :class:`navstack.planner.reactive.PotentialFieldPlanner` pursues it as the *guide*
   of its attraction, so the tip arrives at each goal already turned towards
   the next one, and deviates from it where the sensors say so;
 * :mod:`navstack.generate` checks that a generated world's reference path

@@ -49,7 +49,7 @@ import numpy as np
 
 from navstack.jpl import BACKBONE_FRAMES, jpl_serpentine
 from navstack.planner.field import FieldPlannerConfig
-from navstack.planner.legacy import PlannerConfig
+from navstack.planner.reactive import PlannerConfig
 from navstack.sensing import SensorConfig
 from navstack.sim.servo import ServoConfig
 from navstack.world import Mesh, WorldError
@@ -310,7 +310,7 @@ def make_field_planner(ctx):
 def make_reactive_planner(ctx):
     """The previous reactive potential-field planner (``--planner reactive``), kept as a baseline."""
     from navstack.guide import goal_spline
-    from navstack.planner.legacy import GoalListAdapter, PotentialFieldPlanner
+    from navstack.planner.reactive import GoalListAdapter, PotentialFieldPlanner
 
     inner = PotentialFieldPlanner(ctx.config.reactive_planner, start=ctx.start, heading=ctx.heading,
                                   guide=goal_spline(ctx.start, ctx.heading, ctx.goals))

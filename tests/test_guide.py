@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from navstack.guide import GuidePath, goal_spline
-from navstack.planner.legacy import PlannerConfig, PotentialFieldPlanner
+from navstack.planner.reactive import PlannerConfig, PotentialFieldPlanner
 
 # the goals of a generated truss where the goal-only field planner missed the climb (relative to the tip)
 CLIMB = np.array([[0.316, 0.0, 0.0], [0.671, 0.0, 0.041], [0.802, 0.0, 0.194], [0.822, 0.0, 0.556]])

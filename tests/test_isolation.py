@@ -181,7 +181,7 @@ def test_the_scanner_catches_violations(tmp_path, source):
 def _classes():
     out = []
     for mod, names in (
-        ("navstack.planner.legacy", ("PotentialFieldPlanner", "PointMemory", "PlannerConfig")),
+        ("navstack.planner.reactive", ("PotentialFieldPlanner", "PointMemory", "PlannerConfig")),
         ("navstack.planner.field", ("FieldPlanner", "FieldPlannerConfig")),
         ("navstack.planner.map", ("SensedMap", "MapConfig")),
         ("navstack.estimate", ("RangeEstimator", "EstimatorConfig")),
@@ -226,7 +226,7 @@ def a_world():
 
 
 def test_planner_rejects_a_world(a_world):
-    from navstack.planner.legacy import PlannerConfig, PotentialFieldPlanner
+    from navstack.planner.reactive import PlannerConfig, PotentialFieldPlanner
 
     with pytest.raises(TypeError):
         PotentialFieldPlanner(a_world)

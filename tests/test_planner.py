@@ -16,7 +16,8 @@ import pytest
 from pybullet_utils.bullet_client import BulletClient
 
 from navstack.estimate import RangeEstimator
-from navstack.planner.legacy import PlannerConfig, PotentialFieldPlanner, TipCommand, TipPlanner
+from navstack.planner.reactive import PlannerConfig, PotentialFieldPlanner, TipCommand, TipPlanner
+from navstack.planner.reactive.terms import reach_length
 from navstack.sensing import SensorConfig, frame_from_direction
 from navstack.sim.rays import RaySensor
 
@@ -205,8 +206,7 @@ def test_free_space_respects_speed_and_turn_radius(goal):
     _assert_curvature_limited(vel, 0.02, cfg.min_turn_radius)
     # the path is never much longer than the shortest curvature-bounded one
     length = np.linalg.norm(np.diff(pos, axis=0), axis=1).sum()
-    bound = PotentialFieldPlanner(start=np.zeros(3), heading=[1, 0, 0])._reach_length(
-        np.zeros(3), np.array([1.0, 0, 0]), np.array(goal))
+    bound = reach_length(cfg.min_turn_radius, np.zeros(3), np.array([1.0, 0, 0]), np.array(goal))
     assert length <= 1.1 * bound + 0.02
 
 

@@ -8,7 +8,8 @@ One concept per module:
 * :mod:`navstack.planner.search`: hybrid A* descent of the potential over curvature-bounded arcs;
 * :mod:`navstack.planner.steering`: following the plan at a safe speed;
 * :mod:`navstack.planner.escape`: backing out along the tip's own path;
-* :mod:`navstack.planner.field`: :class:`FieldPlanner`, the sensing planner (``--planner field``).
+* :mod:`navstack.planner.field`: :class:`FieldPlanner`, the sensing planner (``--planner field``);
+* :mod:`navstack.planner.reactive`: the reactive potential-field planner (``--planner reactive``), its baseline.
 
 None of them reads obstacle geometry (tests/test_isolation.py).
 """
