@@ -215,17 +215,25 @@ def _identities(records: Sequence[Mapping[str, Any]]) -> str:
     from navstack.provenance import version_key
 
     keys = sorted({version_key(r.get("provenance")) for r in records}, key=repr)
-    names = ["(no provenance)" if k is None else f"navstack {k[0]}" + (f" @ {str(k[1])[:12]}" if k[1] else "")
+    names = ["no provenance" if k is None else f"navstack {k[0]}" + (f" @ {str(k[1])[:12]}" if k[1] else "")
              for k in keys]
     return ", ".join(names) + (" **(mixed versions)**" if len(keys) > 1 else "")
+
+
+def _errors(records: Sequence[Mapping[str, Any]]) -> str:
+    """How many trials ended in ``error`` (as ``navstack report`` counts them: failures, but of the run, not of
+    the method), or nothing when none did."""
+    n = sum(1 for r in records if r.get("reason") == "error")
+    return f"; {n} ended in `error` (the trial crashed or exceeded its wall-clock limit), counted as failures" \
+        if n else ""
 
 
 def render_markdown(rows: Sequence[Row], dir_a: str, dir_b: str, records_a: Sequence[Mapping[str, Any]],
                     records_b: Sequence[Mapping[str, Any]], plot: str | None = None) -> str:
     """The comparison as Markdown; ``plot`` is the PNG's path relative to the Markdown file."""
     lines = ["# navstack sweep comparison", "",
-             f"- A: `{dir_a}`, {len(records_a)} trials ({_identities(records_a)})",
-             f"- B: `{dir_b}`, {len(records_b)} trials ({_identities(records_b)})", "",
+             f"- A: `{dir_a}`, {len(records_a)} trials ({_identities(records_a)}){_errors(records_a)}",
+             f"- B: `{dir_b}`, {len(records_b)} trials ({_identities(records_b)}){_errors(records_b)}", "",
              "Difference = success rate of B minus A, with a 95 % confidence interval and a two-sided p-value. "
              "Paired rows (both sweeps ran the same worlds with the same seeds): Newcombe's interval for paired "
              "data and McNemar's exact test; `A only` / `B only` count the trials only A / only B succeeded "
