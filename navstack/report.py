@@ -412,8 +412,11 @@ def load_results(path: str | Path) -> Loaded:
     from navstack.sweep import SweepError, read_results
 
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise ReportError(f"{path}: no such results file (run `navstack trials ... --out DIR` first)")
+    if not path.is_file():
+        raise ReportError(f"{path}: not a results file (a directory or other non-regular file; `navstack trials` "
+                          f"writes results.jsonl as a file)")
     try:
         rf = read_results(path)
     except SweepError as exc:

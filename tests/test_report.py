@@ -305,6 +305,17 @@ def test_missing_results_and_cli_exit_status(tmp_path, capsys):
     assert (tmp_path / "report.md").exists() and not (tmp_path / "plots").exists()
 
 
+def test_a_results_path_that_is_a_directory_is_named_as_such(tmp_path, capsys):
+    (tmp_path / "results.jsonl").mkdir()
+    with pytest.raises(ReportError, match="not a results file .a directory"):
+        write_report(tmp_path)
+    parser = argparse.ArgumentParser()
+    report.add_arguments(parser)
+    assert report.run_from_args(parser.parse_args([str(tmp_path)])) == 2
+    assert "not a results file" in capsys.readouterr().err
+    assert not (tmp_path / "report.md").exists()
+
+
 def test_reasons_match_the_trial_module():
     from navstack import trial
 
