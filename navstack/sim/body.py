@@ -18,8 +18,10 @@ Inertias are lumped at each link frame; the body has no self-collision.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from operator import itemgetter
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -124,39 +126,10 @@ class RobotBody:
             radius = serpentine_radius if serp else arm_radius
             masses.append(SERPENTINE_LINK_MASS if serp else ARM_LINK_MASS)
             radii.append(radius if length > 1e-9 else 0.0)
-            if length > 1e-9:
-                quat = _quat_z_to(seg / length)
-                mid = list(seg / 2.0)
-                col_ids.append(
-                    client.createCollisionShape(
-                        pybullet.GEOM_CAPSULE,
-                        radius=radius,
-                        height=length,
-                        collisionFramePosition=mid,
-                        collisionFrameOrientation=quat,
-                    )
-                )
-                vis_ids.append(
-                    -1 if not visuals else client.createVisualShape(
-                        pybullet.GEOM_CAPSULE,
-                        radius=radius,
-                        length=length,
-                        visualFramePosition=mid,
-                        visualFrameOrientation=quat,
-                        rgbaColor=SERPENTINE_COLOUR if serp else ARM_COLOUR,
-                    )
-                )
-            else:
-                col_ids.append(-1)
-                vis_ids.append(-1)
-        # the lathe bed: a rail along z0 over the prismatic joint's travel (visual only)
-        travel = (float(chain.lower[0]), float(chain.upper[0])) if chain.prismatic[0] else (-0.1, 0.1)
-        base_vis = -1 if not visuals else client.createVisualShape(
-            pybullet.GEOM_BOX,
-            halfExtents=[0.05, 0.12, 0.5 * (travel[1] - travel[0]) + 0.1],
-            visualFramePosition=[-0.1, 0.0, 0.5 * (travel[0] + travel[1])],
-            rgbaColor=(0.3, 0.3, 0.35, 1.0),
-        )
+            col, vis = _link_shapes(client, seg, length, radius, SERPENTINE_COLOUR if serp else ARM_COLOUR, visuals)
+            col_ids.append(col)
+            vis_ids.append(vis)
+        base_vis = _lathe_bed_visual(client, chain) if visuals else -1
         body = client.createMultiBody(
             baseMass=0.0,
             baseCollisionShapeIndex=-1,
@@ -174,19 +147,7 @@ class RobotBody:
             linkJointTypes=types,
             linkJointAxis=axes,
         )
-        for link in range(rows):
-            # Links without a shape (zero-length DH rows) would get zero inertia, which stalls the
-            # constraint solver; give every link the inertia of a lumped body instead.
-            serp = link + 1 >= first_serpentine_frame
-            inertia = SERPENTINE_LINK_INERTIA if serp else ARM_LINK_INERTIA
-            client.changeDynamics(
-                body,
-                link,
-                localInertiaDiagonal=[inertia] * 3,
-                linearDamping=0.0,
-                angularDamping=0.0,
-                jointDamping=0.0,
-            )
+        _lumped_inertia(client, body, rows, first_serpentine_frame)
         for j in range(chain.n):  # PyBullet's default velocity motors would fight the servo
             client.setJointMotorControl2(body, j, pybullet.VELOCITY_CONTROL, force=0.0)
         return cls(client=client, body_id=body, chain=chain, base_transform=T0, link_radii=np.array(radii))
@@ -248,3 +209,40 @@ class RobotBody:
             out[k, :3, 3] = s[4]
             out[k, 3, 3] = 1.0
         return out
+
+
+def _link_shapes(client: Any, seg: NDArray[np.float64], length: float, radius: float, rgba: Sequence[float],
+                 visuals: bool) -> tuple[int, int]:
+    """The collision and visual capsule (ids; -1 for none) of a link whose segment ``seg`` (3,) [m], ``length``
+    [m] long, runs from its frame's origin to the next frame's; none for a zero-length (DH) link."""
+    if length <= 1e-9:
+        return -1, -1
+    quat = _quat_z_to(seg / length)
+    mid = list(seg / 2.0)
+    col = client.createCollisionShape(pybullet.GEOM_CAPSULE, radius=radius, height=length,
+                                      collisionFramePosition=mid, collisionFrameOrientation=quat)
+    vis = -1 if not visuals else client.createVisualShape(pybullet.GEOM_CAPSULE, radius=radius, length=length,
+                                                          visualFramePosition=mid, visualFrameOrientation=quat,
+                                                          rgbaColor=rgba)
+    return col, vis
+
+
+def _lathe_bed_visual(client: Any, chain: Chain) -> int:
+    """The lathe bed: a rail along z0 over the prismatic joint's travel (a visual shape only)."""
+    travel = (float(chain.lower[0]), float(chain.upper[0])) if chain.prismatic[0] else (-0.1, 0.1)
+    return client.createVisualShape(
+        pybullet.GEOM_BOX,
+        halfExtents=[0.05, 0.12, 0.5 * (travel[1] - travel[0]) + 0.1],
+        visualFramePosition=[-0.1, 0.0, 0.5 * (travel[0] + travel[1])],
+        rgbaColor=(0.3, 0.3, 0.35, 1.0),
+    )
+
+
+def _lumped_inertia(client: Any, body: int, rows: int, first_serpentine_frame: int) -> None:
+    """Every link the inertia of a lumped body, no damping.  Links without a shape (zero-length DH rows) would
+    get zero inertia, which stalls the constraint solver."""
+    for link in range(rows):
+        serp = link + 1 >= first_serpentine_frame
+        inertia = SERPENTINE_LINK_INERTIA if serp else ARM_LINK_INERTIA
+        client.changeDynamics(body, link, localInertiaDiagonal=[inertia] * 3, linearDamping=0.0,
+                              angularDamping=0.0, jointDamping=0.0)
