@@ -225,19 +225,9 @@ def run_trial(
     A failure inside the simulation is returned as reason ``error`` with the
     message in ``error`` (``navstack run`` then exits 1).
     """
-    from navstack.registry import controller_names, planner_names
     from navstack.world import World, load_world, world_from_dict
 
-    _check_choice("controller", controller, controller_names())
-    _check_choice("planner", planner, planner_names())
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise TrialInputError(f"seed must be a non-negative integer, got {seed!r}")
-    if config is not None and not isinstance(config, TrialConfig):
-        raise TrialInputError(f"config must be a TrialConfig (or None for the defaults), got {config!r:.80}")
-    if not isinstance(render, bool):
-        raise TrialInputError(f"render must be true or false, got {render!r:.40}")
-    if out_dir is not None and (not isinstance(out_dir, (str, os.PathLike)) or not str(out_dir).strip()):
-        raise TrialInputError(f"out_dir must be a folder path (or None to write nothing), got {out_dir!r:.80}")
+    _check_inputs(controller, planner, seed, config, render, out_dir)
     cfg = config or TrialConfig()
     if isinstance(world, dict):
         world = world_from_dict(world)
@@ -281,6 +271,23 @@ def run_trial(
         sim.finish_partial()
     result = _save(out, sim, reason, error, time.perf_counter() - wall0, render=render)
     return result
+
+
+def _check_inputs(controller: str, planner: str, seed: int, config: TrialConfig | None, render: bool,
+                  out_dir: str | os.PathLike | None) -> None:
+    """:func:`run_trial`'s arguments other than the world: :class:`TrialInputError` naming the first bad one."""
+    from navstack.registry import controller_names, planner_names
+
+    _check_choice("controller", controller, controller_names())
+    _check_choice("planner", planner, planner_names())
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise TrialInputError(f"seed must be a non-negative integer, got {seed!r}")
+    if config is not None and not isinstance(config, TrialConfig):
+        raise TrialInputError(f"config must be a TrialConfig (or None for the defaults), got {config!r:.80}")
+    if not isinstance(render, bool):
+        raise TrialInputError(f"render must be true or false, got {render!r:.40}")
+    if out_dir is not None and (not isinstance(out_dir, (str, os.PathLike)) or not str(out_dir).strip()):
+        raise TrialInputError(f"out_dir must be a folder path (or None to write nothing), got {out_dir!r:.80}")
 
 
 # ---- factories named in navstack.registry ------------------------------------------------------------
