@@ -495,6 +495,16 @@ RATE_HEADER = ["trials", "successes", "success rate", "95 % CI low", "95 % CI hi
 def render_markdown(s: Summary, *, source: str = "results.jsonl", plots: Sequence[str] = (),
                     truncated_tail: bool = False) -> str:
     """The report as Markdown; ``plots`` are the PNG paths (relative to the report) to embed."""
+    plot_of = {Path(p).name: p for p in plots}
+    lines = _intro_section(s, source, truncated_tail)
+    lines += _rate_sections(s, plot_of)
+    lines += _failure_section(s, plot_of)
+    lines += _distribution_section(s, plot_of)
+    lines += _provenance_section(s)
+    return "\n".join(lines) + "\n"
+
+
+def _intro_section(s: Summary, source: str, truncated_tail: bool) -> list[str]:
     lines = ["# navstack trial report", ""]
     lines.append(
         f"Source: `{source}`, {s.n_trials} trials; {len(s.methods)} method(s) (controller/planner), "
@@ -505,12 +515,16 @@ def render_markdown(s: Summary, *, source: str = "results.jsonl", plots: Sequenc
     if truncated_tail:
         lines += ["", "Note: the last line of the results file was cut short (a killed sweep) and is ignored; "
                   "resume the sweep to rerun that trial."]
-    plot_of = {Path(p).name: p for p in plots}
-
     if s.mixed_versions:
         lines += ["", f"**Warning: this sweep mixes software versions** ({len(s.provenance)} different "
                   "navstack / commit / Python / PyBullet / numpy combinations, see Provenance below); its "
                   "trials may not be comparable."]
+    return lines
+
+
+def _rate_sections(s: Summary, plot_of: Mapping[str, str]) -> list[str]:
+    """Success rates per method, per family and per family x difficulty x method (with the retraction counts
+    when the sweep has worlds that ask for it)."""
     retraction = bool(s.retracted_by_method)
     retract_header = ["retracted"] if retraction else []
 
@@ -519,7 +533,7 @@ def render_markdown(s: Summary, *, source: str = "results.jsonl", plots: Sequenc
             return []
         return ["-" if counts is None else f"{counts[0]}/{counts[1]}"]
 
-    lines += ["", "## Success rate per controller", ""]
+    lines = ["", "## Success rate per controller", ""]
     if retraction:
         lines += ["`retracted`: trials that backed out completely / trials of worlds that ask for it.", ""]
     lines += _table(["controller", "planner", *RATE_HEADER, *retract_header],
@@ -546,8 +560,11 @@ def render_markdown(s: Summary, *, source: str = "results.jsonl", plots: Sequenc
     lines += _table(["family", "difficulty", "controller", "planner", *RATE_HEADER, *retract_header],
                     ([f, _fmt_diff(d), m[0], m[1], *_rate_cells(r), *retracted(s.retracted_by_cell.get((f, d, m)))]
                      for (f, d, m), r in s.by_cell.items()))
+    return lines
 
-    lines += ["", "## Failure causes", "", "Counts of `reason` among unsuccessful trials.", ""]
+
+def _failure_section(s: Summary, plot_of: Mapping[str, str]) -> list[str]:
+    lines = ["", "## Failure causes", "", "Counts of `reason` among unsuccessful trials.", ""]
     seen = sorted({k for d in s.reasons.values() for k in d}, key=REASONS.index)
     rows = [[reason, *(s.reasons[m].get(reason, 0) for m in s.methods)] for reason in seen]
     rows.append(["all failures", *(sum(s.reasons[m].values()) for m in s.methods)])
@@ -557,8 +574,11 @@ def render_markdown(s: Summary, *, source: str = "results.jsonl", plots: Sequenc
     if s.animations:
         lines += ["", "Animations of the failed trials (kept with `--animate-failures`):", ""]
         lines += [f"- [{tid}]({path}) ({reason})" for tid, reason, path in s.animations]
+    return lines
 
-    lines += ["", "## Distributions"]
+
+def _distribution_section(s: Summary, plot_of: Mapping[str, str]) -> list[str]:
+    lines = ["", "## Distributions"]
     for metric, title, png in METRICS:
         lines += ["", f"### {title}", ""]
         lines += _table(["controller", "planner", "n", "min", "p10", "median", "p90", "max", "mean"],
@@ -567,8 +587,7 @@ def render_markdown(s: Summary, *, source: str = "results.jsonl", plots: Sequenc
                          for m in s.methods for st in [s.stats(metric, m)]))
         if png in plot_of:
             lines += ["", f"![{title}]({plot_of[png]})"]
-    lines += _provenance_section(s)
-    return "\n".join(lines) + "\n"
+    return lines
 
 
 def _provenance_section(s: Summary) -> list[str]:
@@ -596,11 +615,21 @@ def _figure(width: float = 7.0, height: float = 4.0) -> Any:
 def write_plots(s: Summary, folder: Path) -> list[Path]:
     """Write the PNG plots of ``s`` into ``folder``; returns their paths."""
     folder.mkdir(parents=True, exist_ok=True)
-    paths: list[Path] = []
     labels = [method_label(m) for m in s.methods]
+    paths = [_plot_success_rate(s, labels, folder / "success_rate.png")]
+    by_difficulty = _plot_success_vs_difficulty(s, labels, folder / "success_vs_difficulty.png")
+    if by_difficulty is not None:
+        paths.append(by_difficulty)
+    paths.append(_plot_failure_causes(s, labels, folder / "failure_causes.png"))
+    for metric, title, png in METRICS:
+        paths.append(_plot_metric(s, labels, metric, title, folder / png))
+    return paths
+
+
+def _plot_success_rate(s: Summary, labels: Sequence[str], path: Path) -> Path:
+    """Bars of each method's success rate per family and over all, with their intervals."""
     k = len(s.methods)
     width = 0.8 / max(k, 1)
-
     fig = _figure(max(6.0, 1.2 * (len(s.families) + 1) * max(k, 1) * 0.6 + 3))
     ax = fig.add_subplot()
     groups = [*s.families, "all"]
@@ -614,31 +643,40 @@ def write_plots(s: Summary, folder: Path) -> list[Path]:
     ax.set_ylim(0, 1.05)
     ax.set_ylabel("success rate (95 % Wilson CI)")
     ax.legend(fontsize="small")
-    paths.append(folder / "success_rate.png")
-    fig.savefig(paths[-1], dpi=110)
+    fig.savefig(path, dpi=110)
+    return path
 
+
+def _plot_success_vs_difficulty(s: Summary, labels: Sequence[str], path: Path) -> Path | None:
+    """Each family's success rate against difficulty (None: fewer than two difficulties)."""
+    k = len(s.methods)
     diffs = [d for d in s.difficulties if d is not None]
     fams = [f for f in s.families if any((f, d, m) in s.by_cell for d in diffs for m in s.methods)]
-    if len(diffs) > 1 and fams:
-        fig = _figure(4.0 * len(fams), 3.5)
-        axes = fig.subplots(1, len(fams), squeeze=False)[0]
-        for ax, fam in zip(axes, fams, strict=True):
-            for j, m in enumerate(s.methods):
-                pts = [(d, s.by_cell[(fam, d, m)]) for d in diffs if (fam, d, m) in s.by_cell]
-                if not pts:
-                    continue
-                x = np.array([d for d, _ in pts])
-                y = np.array([r.rate for _, r in pts])
-                err = np.array([[r.rate - r.ci_low, r.ci_high - r.rate] for _, r in pts]).T
-                ax.errorbar(x + (j - (k - 1) / 2) * 0.005, y, yerr=err, marker="o", capsize=3, label=labels[j])
-            ax.set_title(fam)
-            ax.set_xlabel("difficulty")
-            ax.set_ylim(-0.02, 1.05)
-        axes[0].set_ylabel("success rate")
-        axes[0].legend(fontsize="small")
-        paths.append(folder / "success_vs_difficulty.png")
-        fig.savefig(paths[-1], dpi=110)
+    if len(diffs) <= 1 or not fams:
+        return None
+    fig = _figure(4.0 * len(fams), 3.5)
+    axes = fig.subplots(1, len(fams), squeeze=False)[0]
+    for ax, fam in zip(axes, fams, strict=True):
+        for j, m in enumerate(s.methods):
+            pts = [(d, s.by_cell[(fam, d, m)]) for d in diffs if (fam, d, m) in s.by_cell]
+            if not pts:
+                continue
+            x = np.array([d for d, _ in pts])
+            y = np.array([r.rate for _, r in pts])
+            err = np.array([[r.rate - r.ci_low, r.ci_high - r.rate] for _, r in pts]).T
+            ax.errorbar(x + (j - (k - 1) / 2) * 0.005, y, yerr=err, marker="o", capsize=3, label=labels[j])
+        ax.set_title(fam)
+        ax.set_xlabel("difficulty")
+        ax.set_ylim(-0.02, 1.05)
+    axes[0].set_ylabel("success rate")
+    axes[0].legend(fontsize="small")
+    fig.savefig(path, dpi=110)
+    return path
 
+
+def _plot_failure_causes(s: Summary, labels: Sequence[str], path: Path) -> Path:
+    """Each method's unsuccessful trials, stacked by reason."""
+    k = len(s.methods)
     fig = _figure(max(5.0, 1.5 * k + 2))
     ax = fig.add_subplot()
     bottom = np.zeros(k)
@@ -653,26 +691,28 @@ def write_plots(s: Summary, folder: Path) -> list[Path]:
         ax.legend(fontsize="small")
     else:
         ax.text(0.5, 0.5, "no failures", ha="center", va="center", transform=ax.transAxes)
-    paths.append(folder / "failure_causes.png")
-    fig.savefig(paths[-1], dpi=110)
+    fig.savefig(path, dpi=110)
+    return path
 
-    for metric, title, png in METRICS:
-        fig = _figure(max(5.0, 1.5 * k + 2))
-        ax = fig.add_subplot()
-        data = [(i, s.values[metric].get(m, ())) for i, m in enumerate(s.methods)]
-        data = [(i, v) for i, v in data if v]
-        if data:
-            ax.boxplot([list(v) for _, v in data], positions=[i for i, _ in data], widths=0.5)
-        else:
-            ax.text(0.5, 0.5, "no data", ha="center", va="center", transform=ax.transAxes)
-        if metric == "min_clearance":
-            ax.axhline(0.0, color="red", lw=0.8, ls="--")
-        ax.set_xticks(np.arange(k), labels)
-        ax.set_xlim(-0.6, k - 0.4)
-        ax.set_title(title)
-        paths.append(folder / png)
-        fig.savefig(paths[-1], dpi=110)
-    return paths
+
+def _plot_metric(s: Summary, labels: Sequence[str], metric: str, title: str, path: Path) -> Path:
+    """Box plots of one metric's values per method."""
+    k = len(s.methods)
+    fig = _figure(max(5.0, 1.5 * k + 2))
+    ax = fig.add_subplot()
+    data = [(i, s.values[metric].get(m, ())) for i, m in enumerate(s.methods)]
+    data = [(i, v) for i, v in data if v]
+    if data:
+        ax.boxplot([list(v) for _, v in data], positions=[i for i, _ in data], widths=0.5)
+    else:
+        ax.text(0.5, 0.5, "no data", ha="center", va="center", transform=ax.transAxes)
+    if metric == "min_clearance":
+        ax.axhline(0.0, color="red", lw=0.8, ls="--")
+    ax.set_xticks(np.arange(k), labels)
+    ax.set_xlim(-0.6, k - 0.4)
+    ax.set_title(title)
+    fig.savefig(path, dpi=110)
+    return path
 
 
 def write_report(directory: str | Path, *, plots: bool = True) -> Path:
