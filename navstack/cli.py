@@ -16,6 +16,7 @@ import argparse
 import os
 import sys
 from pathlib import Path
+from typing import Any
 
 from navstack import __version__
 
@@ -339,15 +340,23 @@ def _urdf(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="navstack", description=DESCRIPTION, epilog=EPILOG,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--version", action="version", version=f"navstack {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    _add_trial_commands(sub)
+    _add_picture_commands(sub)
+    _add_world_commands(sub)
+    _add_sweep_commands(sub)
+    _add_robot_commands(sub)
+    return p
+
+
+def _add_trial_commands(sub: Any) -> None:
+    """``demo`` and ``run``."""
     from navstack.registry import controller_names, planner_names
 
     CONTROLLERS, PLANNERS = controller_names(), planner_names()
-    raw = argparse.RawDescriptionHelpFormatter
-
-    p = argparse.ArgumentParser(prog="navstack", description=DESCRIPTION, epilog=EPILOG, formatter_class=raw)
-    p.add_argument("--version", action="version", version=f"navstack {__version__}")
-    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
-
     d = sub.add_parser("demo", help="the paper's truss demo, headless (writes result.json, trajectory.npz, scene.png)")
     d.add_argument("--out", default="out/demo", type=nonempty_path, help="output folder (default: out/demo)")
     d.add_argument("--planner", choices=PLANNERS, default="field")
@@ -373,6 +382,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--animate", action="store_true", help="also write animation.mp4 (see: navstack animate)")
     r.set_defaults(func=_run)
 
+
+def _add_picture_commands(sub: Any) -> None:
+    """``animate`` and ``view``."""
     a = sub.add_parser("animate", help="animate a run folder (trajectory.npz + world.json) to MP4 or GIF")
     a.add_argument("run_dir", help="a folder written by navstack run --out (or demo, or a sweep's kept trial)")
     a.add_argument("--out", type=nonempty_path, help="file to write, .mp4 or .gif (default: RUN_DIR/animation.mp4)")
@@ -397,6 +409,8 @@ def build_parser() -> argparse.ArgumentParser:
     v.set_defaults(func=_view)
 
 
+def _add_world_commands(sub: Any) -> None:
+    """``check-world`` and ``generate``."""
     c = sub.add_parser("check-world", help="validate world files without running them (also: goals in reach, "
                                            "robot clear of every obstacle at the start)")
     c.add_argument("files", nargs="+")
@@ -404,7 +418,7 @@ def build_parser() -> argparse.ArgumentParser:
     c.set_defaults(func=_check_world)
 
     g = sub.add_parser("generate", help="write a randomized world of a family", epilog=_families_help(),
-                       formatter_class=raw)
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     g.add_argument("family", metavar="FAMILY", help="one of the families listed below")
     g.add_argument("--seed", type=int, required=True, help="the world's seed (same seed, same world)")
     g.add_argument("--difficulty", type=float, default=0.5, help="0 (easy) .. 1 (hard), default 0.5")
@@ -414,8 +428,11 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--out", required=True, type=nonempty_path, help="world file to write")
     g.set_defaults(func=_generate)
 
+
+def _add_sweep_commands(sub: Any) -> None:
+    """``trials``, ``report`` and ``compare``."""
     t = sub.add_parser("trials", help="run many trials in parallel into DIR/results.jsonl (resumable)",
-                       epilog=_families_help(), formatter_class=raw)
+                       epilog=_families_help(), formatter_class=argparse.RawDescriptionHelpFormatter)
     from navstack.sweep import add_trials_arguments
 
     add_trials_arguments(t)
@@ -433,6 +450,9 @@ def build_parser() -> argparse.ArgumentParser:
     add_compare_arguments(cp)
     cp.set_defaults(func=_compare)
 
+
+def _add_robot_commands(sub: Any) -> None:
+    """``model`` and ``urdf``."""
     m = sub.add_parser("model", help="print the robot model (Figure 2 in metres) and the default posture")
     m.set_defaults(func=_model)
 
@@ -441,7 +461,6 @@ def build_parser() -> argparse.ArgumentParser:
     u.add_argument("--serpentine-radius", type=float, default=0.025, help="serpentine capsule radius [m]")
     u.add_argument("--arm-radius", type=float, default=0.06, help="arm capsule radius [m]")
     u.set_defaults(func=_urdf)
-    return p
 
 
 def main(argv: list[str] | None = None) -> int:
