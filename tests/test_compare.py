@@ -138,6 +138,23 @@ def test_different_trials_are_unpaired():
     assert not compare.compare(a, b[:10])[0].paired
 
 
+def test_records_that_cannot_be_told_apart_are_not_paired():
+    """Ten trials a sweep with neither world nor seed: every record has the same key, so no trial of A can be
+    matched to one of B; pairing them by key would compare one record with itself (p = 1)."""
+    from scipy.stats import fisher_exact
+
+    def anonymous(successes):
+        return [{"controller": "slither", "planner": "field", "success": i < successes,
+                 "reason": "reached" if i < successes else "collision", "family": "truss"} for i in range(10)]
+
+    rows = compare.compare(anonymous(2), anonymous(8))
+    assert all(not r.paired for r in rows)
+    assert rows[0].test == "Fisher exact"
+    assert rows[0].p_value == pytest.approx(fisher_exact([[2, 8], [8, 2]]).pvalue, rel=1e-9)
+    assert rows[0].p_value == pytest.approx(0.023, abs=5e-4)
+    assert (rows[0].ci_low, rows[0].ci_high) == pytest.approx(newcombe_unpaired(2, 10, 8, 10))
+
+
 def test_a_partial_overlap_is_unpaired_and_named_with_mcnemar_on_the_shared_trials():
     """20 trials in A, 19 of them in B (a review: Fisher's p over all of them read 0.0083 where McNemar's on the
     shared 19 reads 0.0156): the row stays unpaired, as the spec asks, and the Markdown names the overlap."""

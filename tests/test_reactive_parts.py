@@ -10,9 +10,9 @@ import pytest
 from navstack.planner.reactive import PlannerConfig, PointMemory
 from navstack.planner.reactive.gap import GapCentering
 from navstack.planner.reactive.lookahead import Lookahead
-from navstack.planner.reactive.terms import goal_inside_turn_circle, reach_length, repulsion, speed
+from navstack.planner.reactive.terms import aim_direction, goal_inside_turn_circle, reach_length, repulsion, speed
 from navstack.planner.reactive.vectors import rotate_towards
-from navstack.planner.reactive.wall_follow import WallFollower, free_length
+from navstack.planner.reactive.wall_follow import WallFollower, boundary_normal, free_length
 
 R = 0.25
 X = np.array([1.0, 0.0, 0.0])
@@ -151,3 +151,106 @@ def test_wall_follower_commits_to_a_direction_along_the_surface():
     d = wf.direction(O, wall, (g - O) / np.linalg.norm(g))
     assert abs(d[0]) < 0.9 and d[0] <= 0.0  # along the wall (or away from it), not into it
     assert not wf.start(3.0, O, X, g, np.empty((0, 3)))  # nothing near: nothing to follow
+
+
+def test_speed_falls_from_cruise_to_v_min_between_the_slow_and_the_safety_distance():
+    cfg = PlannerConfig()
+    assert speed(cfg, cfg.safety_distance, np.inf, X, X, 1.0, False, 0.0) == pytest.approx(cfg.v_min)
+    assert speed(cfg, cfg.slow_distance, np.inf, X, X, 1.0, False, 0.0) == pytest.approx(cfg.v_max)
+    mid = 0.5 * (cfg.safety_distance + cfg.slow_distance)
+    assert speed(cfg, mid, np.inf, X, X, 1.0, False, 0.0) == pytest.approx(0.5 * (cfg.v_min + cfg.v_max))
+    # turning halves the speed, but never below v_min (turning needs motion)
+    assert speed(cfg, cfg.safety_distance, np.inf, X, -X, 1.0, False, 0.0) == pytest.approx(cfg.v_min)
+
+
+def test_repulsion_weights_each_point_by_the_khatib_term():
+    """Two points, clearances 0.03 m on +y and 0.06 m on +z: the push's components are in the ratio of their
+    weights (1/rho - 1/rho0)^2, away from each."""
+    cfg = PlannerConfig()
+    r = cfg.body_radius
+    P = np.array([[0.0, r + 0.03, 0.0], [0.0, 0.0, r + 0.06]])
+    F, clear_min, _ = repulsion(cfg, O, X, P)
+    w1, w2 = ((1 / 0.03 - 1 / cfg.influence_distance) ** 2, (1 / 0.06 - 1 / cfg.influence_distance) ** 2)
+    assert clear_min == pytest.approx(0.03)
+    assert F[1] < 0 and F[2] < 0
+    assert F[1] / F[2] == pytest.approx(w1 / w2, rel=1e-12)
+
+
+def test_aim_direction_is_the_carrot_on_the_hermite_corner_curve():
+    """With a next goal, the aim points at the cubic Hermite curve from x (tangent dist h) to the goal (tangent
+    corner_tangent dist t, t the bisector of in and out) at parameter corner_lead: scipy's spline as the
+    reference."""
+    from scipy.interpolate import CubicHermiteSpline
+
+    cfg = PlannerConfig()
+    g, g_next = np.array([1.0, 0.0, 0.0]), np.array([1.0, 1.0, 0.0])
+    t = (X + Y) / np.linalg.norm(X + Y)
+    curve = CubicHermiteSpline([0.0, 1.0], np.array([O, g]), np.array([1.0 * X, cfg.corner_tangent * 1.0 * t]))
+    carrot = curve(cfg.corner_lead)
+    expected = carrot / np.linalg.norm(carrot)
+    assert aim_direction(cfg, O, X, g, X, 1.0, g_next) == pytest.approx(expected, abs=1e-12)
+    assert np.array_equal(aim_direction(cfg, O, X, g, X, 1.0, None), X)  # no next goal: the goal itself
+
+
+def test_free_length_is_blocked_by_a_point_just_inside_the_tube_radius():
+    radius = 0.06
+    inside = np.array([[0.2, 0.95 * radius, 0.0]])
+    outside = np.array([[0.2, 1.05 * radius, 0.0]])
+    assert free_length(O, X, inside, 0.6, radius) == pytest.approx(0.2)
+    assert free_length(O, X, outside, 0.6, radius) == 0.6
+
+
+def test_boundary_normal_weights_points_by_inverse_square_clearance():
+    cfg = PlannerConfig()
+    r = cfg.body_radius
+    P = np.array([[0.0, -(r + 0.02), 0.0], [0.0, 0.0, -(r + 0.04)]])  # below in y (near) and in z (farther)
+    n = boundary_normal(cfg, O, P)
+    w1, w2 = 1 / 0.02**2, 1 / 0.04**2
+    expected = np.array([0.0, w1, w2]) / np.hypot(w1, w2)
+    assert n == pytest.approx(expected, abs=1e-12)
+    assert boundary_normal(cfg, O, np.array([[0.0, 1.0, 0.0]])) is None  # beyond follow_range
+
+
+def _wall(x: float = 0.05) -> np.ndarray:
+    return np.array([[x, y, z] for y in np.linspace(-0.3, 0.3, 31) for z in np.linspace(-0.3, 0.3, 31)])
+
+
+def test_wall_follower_picks_the_side_of_the_goal():
+    """A symmetric wall head-on, 0.1 m ahead (beyond the tube's radius: every direction along it is free over the
+    whole 0.3 m that counts, and as far from the heading): the goal, a little to +y or to -y, picks the side."""
+    for side in (1.0, -1.0):
+        wf = WallFollower(PlannerConfig())
+        g = np.array([1.0, 0.1 * side, 0.0])
+        assert wf.start(0.0, O, X, g, _wall(0.1))
+        d = wf.direction(O, _wall(0.1), g / np.linalg.norm(g))
+        assert d[1] * side > 0.5
+
+
+def test_wall_follower_curls_back_round_a_lost_edge():
+    """Once no point is within follow_range (the tip passed a convex edge), it turns back towards where the
+    surface was (against the last normal), not out into the open."""
+    cfg = PlannerConfig()
+    wf = WallFollower(cfg)
+    g = np.array([1.0, 0.1, 0.0])
+    assert wf.start(0.0, O, X, g, _wall())
+    n = np.array([-1.0, 0.0, 0.0])  # the normal away from the wall at x = 0.05
+    d = wf.direction(O, np.empty((0, 3)), g / np.linalg.norm(g))
+    assert d @ n < -0.3
+
+
+def test_wall_follower_leaves_only_closer_than_at_the_stall_and_with_a_free_way():
+    cfg = PlannerConfig()
+    wf = WallFollower(cfg)
+    g = np.array([1.0, 0.0, 0.0])
+    assert wf.start(0.0, O, X, g, _wall())  # the stall 1 m from the goal
+    blocker = np.array([[0.85, 0.0, 0.0]])
+    x_near = np.array([0.7, 0.0, 0.0])  # 0.3 m from the goal (within memory_radius), much closer than at the stall
+    assert wf.may_leave(x_near, g, 0.3, np.empty((0, 3)))
+    assert not wf.may_leave(x_near, g, 0.3, blocker)  # something known on the way
+    # not closer by stall_progress than at the stall, and the goal beyond memory_radius: stay on the wall
+    x_back = np.array([1.0 - (1.0 - 0.5 * cfg.stall_progress), 0.0, 0.0])
+    assert not wf.may_leave(x_back, g, 1.0 - 0.5 * cfg.stall_progress, np.empty((0, 3)))
+    # closer by more than stall_progress, the way ahead free over the look-ahead: leave
+    x_on = np.array([2.0 * cfg.stall_progress, 0.0, 0.0])
+    assert wf.may_leave(x_on, g, 1.0 - 2.0 * cfg.stall_progress, np.empty((0, 3)))
+    assert not wf.may_leave(x_on, g, 1.0 - 2.0 * cfg.stall_progress, np.array([[0.3, 0.0, 0.0]]))

@@ -267,6 +267,8 @@ def test_truncated_last_line_is_ignored_with_a_note(tmp_path):
     # a success that contradicts itself is refused, never counted
     ('GOOD\n{"controller": "s", "planner": "f", "success": true, "reason": "reached", "metrics": {"contacts": 5}}\n',
      "line 2: 'success' is true but 'metrics.contacts' is 5 (a success has no contact)"),
+    ('GOOD\n{"controller": "s", "planner": "f", "success": true, "reason": "reached", "metrics": {"contacts": 1}}\n',
+     "line 2: 'success' is true but 'metrics.contacts' is 1 (a success has no contact)"),
     ('GOOD\n{"controller": "s", "planner": "f", "success": true, "reason": "reached", "metrics": '
      '{"min_clearance": -0.001}}\n', "line 2: 'success' is true but 'metrics.min_clearance' is -0.001"),
     ('GOOD\n{"controller": "s", "planner": "f", "success": true, "reason": "reached", "goals_reached": 0}\n',

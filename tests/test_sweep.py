@@ -749,6 +749,28 @@ def test_an_interrupt_while_a_line_is_recorded_comes_after_its_count():
     assert done == ["line", "count"]
 
 
+def test_a_sweep_interrupted_as_it_records_a_line_counts_every_line_it_wrote(tmp_path, monkeypatch):
+    """The driver's own recording holds the interrupt (not just the context manager on its own): a Ctrl-C
+    arriving just after a results line is written is delivered after that line is counted, so the summary's
+    count is the file's."""
+    folder = write_worlds(tmp_path / "in", 3)
+    specs = build_specs(SweepConfig(worlds_dir=str(folder)))
+    real = sweep._ResultsWriter.append
+
+    def append_then_interrupt(self, record):
+        real(self, record)
+        os.kill(os.getpid(), signal.SIGINT)  # between the line and its count
+
+    monkeypatch.setattr(sweep._ResultsWriter, "append", append_then_interrupt)
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        summary = run_sweep(specs, tmp_path / "out", jobs=1, runner=fake_runner, progress=False)
+    finally:
+        signal.signal(signal.SIGINT, old)
+    assert summary.interrupted
+    assert summary.recorded == len(lines_of(tmp_path / "out" / "results.jsonl")) == 1
+
+
 # ---------------------------------------------------------------------------------------------- hardening
 
 
@@ -952,6 +974,10 @@ def test_resume_refuses_a_line_of_another_sweep_configuration(tmp_path):
                           [re.sub(r'"steps": (\d+)', r'"steps": "\1"', lines0[0])])
     with pytest.raises(SweepError, match=r"line 1: field 'steps' must be an integer >= 0 or null, got '\d+'; remove"):
         run_sweep(specs0, typed, jobs=1, runner=fake_runner, progress=False)
+    # a finished trial recorded twice is refused, not silently deduplicated (which line is the trial's?)
+    twice = _partial_copy(tmp_path / "s0", tmp_path / "twice", [lines0[0], lines0[0]])
+    with pytest.raises(SweepError, match=r"results\.jsonl, line 2: trial_id '[^']+' recorded twice"):
+        run_sweep(specs0, twice, jobs=1, runner=fake_runner, progress=False)
     # the sweep's own lines still resume
     own = _partial_copy(tmp_path / "s0", tmp_path / "own", lines0[:1])
     summary = run_sweep(specs0, own, jobs=1, runner=fake_runner, progress=False)

@@ -221,6 +221,35 @@ def test_an_exception_inside_the_loop_is_an_error_outcome(hold_planner, clearanc
     assert saved["reason"] == "error" and saved["error"] == "RuntimeError: boom"
     npz = np.load(out / "trajectory.npz")
     assert npz["t"].shape == (4,) and npz["q"].shape == (4, 20)  # t = 0 and the three steps taken
+    assert saved["metrics"]["min_clearance"] == 0.1  # measured within the horizon: known
+
+
+def test_goals_within_reach_at_once_are_all_counted_at_once(hold_planner):
+    """Two goals 5 mm from the start tip, tolerance 20 mm: both are reached at the first measurement (t = 0),
+    not one per control step."""
+    goal = _world(5.0, goal_offset=(0.005, 0.0, 0.0)).goals[0].position.tolist()
+    w = world_from_dict({"format": "navstack-world/1", "name": "twice", "robot": {}, "obstacles": [],
+                         "goals": [{"position": goal, "tolerance": 0.02}] * 2, "time_limit": 5.0})
+    r = run_trial(w, planner="scripted")
+    assert (r.reason, r.goals_reached, r.steps) == ("reached", 2, 0)
+
+
+@pytest.mark.parametrize(("offset", "reached"), [(0.0195, True), (0.0205, False)])
+def test_a_goal_counts_only_within_its_tolerance(hold_planner, offset, reached):
+    """The tip held 19.5 mm / 20.5 mm from a goal of tolerance 20 mm: reached at once, or never (timeout)."""
+    r = run_trial(_world(time_limit=0.2, goal_offset=(offset, 0.0, 0.0)), planner="scripted")
+    assert (r.goals_reached, r.reason) == ((1, "reached") if reached else (0, "timeout"))
+
+
+def test_an_error_before_anything_came_within_the_clearance_horizon_reports_no_clearance(hold_planner,
+                                                                                        clearances):
+    """The clearance is asked only up to the horizon (0.5 m); a trial that ends normally is replayed to measure
+    farther, one that ends in ``error`` is not: its ``min_clearance`` is unknown (null), not the horizon."""
+    seq, _ = clearances
+    seq[:] = [TrialConfig().clearance_horizon]  # what the query answers when nothing is within it
+    hold_planner.update(raise_at=4, exc=RuntimeError("boom"))
+    r = run_trial(_world(time_limit=5.0), planner="scripted")
+    assert r.reason == "error" and r.metrics["min_clearance"] is None
 
 
 def test_an_interrupt_saves_a_partial_result_and_propagates(hold_planner, clearances, tmp_path):
@@ -446,8 +475,9 @@ def test_reach_bound_is_the_sum_of_the_figure_2_link_offsets():
                 check_reach(w)
 
 
-@pytest.mark.parametrize("time_limit", [0.3 - 2e-11, 0.3, 0.7, 0.7 - 3e-11, 0.1 + 0.2])
-def test_the_recorded_times_never_pass_the_time_limit(hold_planner, tmp_path, time_limit):
+@pytest.mark.parametrize(("time_limit", "steps"), [(0.3 - 2e-11, 9), (0.3, 9), (0.7, 21), (0.7 - 3e-11, 21),
+                                                   (0.1 + 0.2, 9)])
+def test_the_recorded_times_never_pass_the_time_limit(hold_planner, tmp_path, time_limit, steps):
     """A time limit a hair below a whole number of control periods ran one step more: sim_time (rounded to
     1e-9 s) and the trajectory's last t came out above time_limit, and an independent check of
     ``sim_time <= time_limit`` would fail the trial's own record."""
@@ -455,5 +485,6 @@ def test_the_recorded_times_never_pass_the_time_limit(hold_planner, tmp_path, ti
     assert r.reason == "timeout"
     t = np.load(tmp_path / "trajectory.npz")["t"]
     assert r.sim_time <= time_limit and t[-1] <= time_limit and t[-1] == r.sim_time
-    assert r.steps * DT <= time_limit + 1e-9  # and not a step fewer than the limit allows
-    assert (r.steps + 1) * DT > time_limit
+    # and not a step fewer than the limit allows: a step that ends within 1e-9 periods past it counts
+    # (0.7 - 3e-11 s is 20.9999999991 periods of 1/30 s: 21 steps, the last one read as the limit)
+    assert r.steps == steps
