@@ -183,6 +183,9 @@ class Summary:
     animations: tuple[tuple[str, str, str], ...] = ()
     """(trial_id, reason, animation file relative to the sweep folder) of failed trials kept with
     ``--animate-failures``."""
+    failed: tuple[tuple[str, str, str, str, str, str], ...] = ()
+    """(trial_id, world, method, reason, goals reached, sim_time) of every unsuccessful trial, sorted (``-`` where
+    a line lacks the field)."""
 
     @property
     def mixed_versions(self) -> bool:
@@ -380,6 +383,7 @@ def summarize(records: Iterable[Mapping[str, Any]], *, checked: bool = False) ->
                        if not r["success"] and isinstance(r.get("animation"), str) and "trial_id" in r)
     return Summary(
         animations=animations,
+        failed=tuple(sorted(_failed_row(r) for r in records if r["success"] is not True)),
         n_trials=len(records), methods=methods, families=families, difficulties=difficulties,
         by_method=by_method, by_family=by_family,
         by_cell={k: by_cell[k] for k in sorted(by_cell, key=lambda k: (_fam_key(k[0]), _diff_key(k[1]), k[2]))},
@@ -508,10 +512,10 @@ def _intro_section(s: Summary, source: str, truncated_tail: bool) -> list[str]:
     lines = ["# navstack trial report", ""]
     lines.append(
         f"Source: `{source}`, {s.n_trials} trials; {len(s.methods)} method(s) (controller/planner), "
-        f"{len(s.families)} world familie(s), {len(s.difficulties)} difficulty level(s). A success is every "
-        "goal reached in order, with no contact, within the world's time limit. Intervals are 95 % Wilson "
-        f"score intervals. Trials ending in `error` (the trial crashed or exceeded its wall-clock limit: "
-        f"{s.errors} here) count as failures.")
+        f"{len(s.families)} world famil{'y' if len(s.families) == 1 else 'ies'}, {len(s.difficulties)} difficulty "
+        "level(s). A success is every goal reached in order, with no contact, within the world's time limit. "
+        "Intervals are 95 % Wilson score intervals. Trials ending in `error` (the trial crashed or exceeded its "
+        f"wall-clock limit: {s.errors} here) count as failures.")
     if truncated_tail:
         lines += ["", "Note: the last line of the results file was cut short (a killed sweep) and is ignored; "
                   "resume the sweep to rerun that trial."]
@@ -563,6 +567,18 @@ def _rate_sections(s: Summary, plot_of: Mapping[str, str]) -> list[str]:
     return lines
 
 
+def _failed_row(r: Mapping[str, Any]) -> tuple[str, str, str, str, str, str]:
+    def text(key: str) -> str:
+        return "-" if r.get(key) is None else str(r[key])
+
+    return (text("trial_id"), text("world"), method_label((r["controller"], r["planner"])), str(r["reason"]),
+            text("goals_reached"), text("sim_time"))
+
+
+MAX_FAILED_LISTED = 100
+"""The report lists at most this many unsuccessful trials by name (the rest: in results.jsonl)."""
+
+
 def _failure_section(s: Summary, plot_of: Mapping[str, str]) -> list[str]:
     lines = ["", "## Failure causes", "", "Counts of `reason` among unsuccessful trials.", ""]
     seen = sorted({k for d in s.reasons.values() for k in d}, key=REASONS.index)
@@ -574,6 +590,14 @@ def _failure_section(s: Summary, plot_of: Mapping[str, str]) -> list[str]:
     if s.animations:
         lines += ["", "Animations of the failed trials (kept with `--animate-failures`):", ""]
         lines += [f"- [{tid}]({path}) ({reason})" for tid, reason, path in s.animations]
+    if s.failed:
+        shown = s.failed[:MAX_FAILED_LISTED]
+        more = len(s.failed) - len(shown)
+        lines += ["", "### Unsuccessful trials", "",
+                  f"By trial{f'; the first {len(shown)} of {len(s.failed)}' if more else ''} "
+                  "(rerun one with `navstack run WORLD --seed SEED --controller C --planner P`, the world and seed "
+                  "as on its line).", ""]
+        lines += _table(["trial", "world", "method", "reason", "goals reached", "sim time [s]"], shown)
     return lines
 
 

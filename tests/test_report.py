@@ -203,6 +203,24 @@ def test_summarize_is_pure_and_skips_missing_values():
     assert st.n == sum(1 for r in recs if r["controller"] == "slither" and r["metrics"]["min_clearance"] is not None)
 
 
+def test_the_unsuccessful_trials_are_listed_by_name_up_to_a_limit(tmp_path, monkeypatch):
+    recs = synthetic_records()
+    failed = sorted(r["trial_id"] for r in recs if not r["success"])
+    assert len(failed) > 3
+    write_jsonl(tmp_path / "results.jsonl", recs)
+    rows = md_table(write_report(tmp_path, plots=False).read_text(), "### Unsuccessful trials")
+    assert [r[0] for r in rows] == failed
+    by_id = {r["trial_id"]: r for r in recs}
+    for trial, world, method, reason, goals, _ in rows:
+        rec = by_id[trial]
+        assert (world, method, reason) == (rec["world"], f"{rec['controller']}/{rec['planner']}", rec["reason"])
+        assert goals == ("-" if rec.get("goals_reached") is None else str(rec["goals_reached"]))
+    monkeypatch.setattr(report, "MAX_FAILED_LISTED", 3)
+    text = write_report(tmp_path, plots=False).read_text()
+    assert [r[0] for r in md_table(text, "### Unsuccessful trials")] == failed[:3]
+    assert f"the first 3 of {len(failed)}" in text
+
+
 def test_truncated_last_line_is_ignored_with_a_note(tmp_path):
     recs = synthetic_records()[:6]
     write_jsonl(tmp_path / "results.jsonl", recs)
