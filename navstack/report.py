@@ -325,6 +325,27 @@ def _check_records(records: Sequence[Mapping[str, Any]], where, short=None) -> N
             seen[tid] = i
 
 
+def _tally(records: Sequence[Mapping[str, Any]], keyf: Any) -> dict[Any, Rate]:
+    """The success :class:`Rate` of the records grouped by ``keyf(record)``."""
+    counts: dict[Any, list[int]] = {}
+    for r in records:
+        c = counts.setdefault(keyf(r), [0, 0])
+        c[0] += r["success"] is True
+        c[1] += 1
+    return {k: Rate.of(s, n) for k, (s, n) in counts.items()}
+
+
+def _tally_retracted(records: Sequence[Mapping[str, Any]], keyf: Any) -> dict[Any, tuple[int, int]]:
+    """(retracted, asked to) of the records of worlds that ask for retraction, grouped by ``keyf(record)``."""
+    counts: dict[Any, list[int]] = {}
+    for r in records:
+        if "retracted" in r:
+            c = counts.setdefault(keyf(r), [0, 0])
+            c[0] += r["retracted"] is True
+            c[1] += 1
+    return {k: (a, b) for k, (a, b) in counts.items()}
+
+
 def summarize(records: Iterable[Mapping[str, Any]], *, checked: bool = False) -> Summary:
     """Success rates, failure causes and metric distributions of result records (pure; see module doc).
 
@@ -346,26 +367,9 @@ def summarize(records: Iterable[Mapping[str, Any]], *, checked: bool = False) ->
     families = tuple(sorted({family(r) for r in records}, key=_fam_key))
     difficulties = tuple(sorted({r.get("difficulty") for r in records}, key=_diff_key))
 
-    def tally(keyf: Any) -> dict[Any, Rate]:
-        counts: dict[Any, list[int]] = {}
-        for r in records:
-            c = counts.setdefault(keyf(r), [0, 0])
-            c[0] += r["success"] is True
-            c[1] += 1
-        return {k: Rate.of(s, n) for k, (s, n) in counts.items()}
-
-    def tally_retracted(keyf: Any) -> dict[Any, tuple[int, int]]:
-        counts: dict[Any, list[int]] = {}
-        for r in records:
-            if "retracted" in r:
-                c = counts.setdefault(keyf(r), [0, 0])
-                c[0] += r["retracted"] is True
-                c[1] += 1
-        return {k: (a, b) for k, (a, b) in counts.items()}
-
-    by_method = tally(method)
-    by_family = tally(lambda r: (family(r), method(r)))
-    by_cell = tally(lambda r: (family(r), r.get("difficulty"), method(r)))
+    by_method = _tally(records, method)
+    by_family = _tally(records, lambda r: (family(r), method(r)))
+    by_cell = _tally(records, lambda r: (family(r), r.get("difficulty"), method(r)))
     reasons: dict[tuple[str, str], dict[str, int]] = {m: {} for m in methods}
     for r in records:
         if not r["success"]:
@@ -390,8 +394,8 @@ def summarize(records: Iterable[Mapping[str, Any]], *, checked: bool = False) ->
         reasons=reasons,
         values={k: {m: tuple(sorted(v)) for m, v in d.items()} for k, d in values.items()},
         errors=sum(1 for r in records if r["reason"] == "error"),
-        retracted_by_method=tally_retracted(method),
-        retracted_by_cell=tally_retracted(lambda r: (family(r), r.get("difficulty"), method(r))),
+        retracted_by_method=_tally_retracted(records, method),
+        retracted_by_cell=_tally_retracted(records, lambda r: (family(r), r.get("difficulty"), method(r))),
         provenance=_provenances(records),
     )
 
