@@ -264,7 +264,7 @@ def test_after_backing_out_of_the_pocket_the_goal_is_reached_round_it(pocket_fli
 
 @pytest.mark.slow
 def test_a_fully_enclosed_goal_ends_stalled_without_touching():
-    f = _fly(boxes=_enclosure([1.0, 0.0, 0.0]), goals=[(1.0, 0.0, 0.0)], t_max=120.0)
+    f = _fly(boxes=_enclosure([1.0, 0.0, 0.0]), goals=[(1.0, 0.0, 0.0)], t_max=200.0)
     print(f"\nenclosed goal: stalled {f.stalled} after {f.steps * DT:.1f} s, {f.planner.retreats} retreats, "
           f"clearance {f.clearance * 1e3:.1f} mm")
     assert f.stalled and not f.reached
@@ -375,3 +375,32 @@ def test_a_full_search_that_reaches_nothing_tries_again_with_a_larger_goal_ball(
     assert np.linalg.norm(plan.points - g2, axis=1).min() > 0.7 * 0.02  # the first try's ball could not hold it
     monkeypatch.setattr(field, "RELAXED_GOAL_FRACTION", 0.7)
     assert FieldPlanner([0, 0, 0], [1, 0, 0], [g1, g2], [0.02, 0.02]).follower.plan.status == PARTIAL
+
+
+def test_a_spent_budget_earns_one_deeper_search_only_after_escapes_for_the_goal():
+    """A goal behind and to the side of the start takes 31 expansions; with a budget of 10 every full search
+    is partial. A deeper search (deep_budget) then reaches it, but only once deep_after_retreats escapes for
+    that goal have not found a way (the first escapes settle most failed searches cheaply; a rack's slot, a
+    review's world, needed it: stalled after 6 escapes without, reached with)."""
+    from dataclasses import replace
+
+    from navstack.planner.search import PARTIAL, REACHED
+
+    goal = np.array([-0.3, 0.4, 0.0])
+    base = replace(CFG, search=replace(CFG.search, max_expansions=10), deep_budget=5000, deep_after_retreats=2)
+
+    def plan_after(retreats: int, config: FieldPlannerConfig) -> int:
+        pl = FieldPlanner([0, 0, 0], [1, 0, 0], [goal], [0.02], config=config)
+        pl._goal_retreats[0] = retreats
+        p0, h0 = pl.follower.state()
+        return pl._plan_from(p0, h0, 0).status
+
+    assert plan_after(0, base) == PARTIAL  # no escape yet: the budget's answer stands
+    assert plan_after(1, base) == PARTIAL
+    assert plan_after(2, base) == REACHED
+    assert plan_after(5, replace(base, deep_after_retreats=6)) == PARTIAL
+    assert plan_after(2, replace(base, deep_budget=0)) == PARTIAL  # 0: never
+    with pytest.raises(ValueError, match="deep_budget"):
+        FieldPlannerConfig(deep_budget=-1)
+    with pytest.raises(ValueError, match="deep_after_retreats"):
+        FieldPlannerConfig(deep_after_retreats=1.5)

@@ -36,6 +36,7 @@ from navstack.planner.potential import NavigationFunction, Repulsion, navigation
 from navstack.planner.proximity import sets_closer_than
 from navstack.planner.search import (
     NO_PATH,
+    PARTIAL,
     REACHED,
     ArmShape,
     Plan,
@@ -67,6 +68,12 @@ class FieldPlannerConfig:
         urgent_margin: a new surface point within the blocking radius plus this of the plan ahead
             forces a replan at once [m].
         improve_budget: expansions of a replan while the plan being followed still holds.
+        deep_budget: expansions of one more search when a full replan spent the search's own budget without
+            reaching every goal, once ``deep_after_retreats`` escapes for the same goal have not found a way
+            (0 or below the search's budget: never).
+        deep_after_retreats: escapes (backing out) for the current goal before a spent budget earns the deeper
+            search (a rack's slot can need it; most failed searches are settled by the first escapes, and a
+            deeper search that fails costs 2.5 times the budget); then once per escape.
         path_spacing: vertex spacing of the record of the commanded path: the controller's [m].
         nav_period: the navigation function is recomputed at least this often while the map
             changes [s] (and whenever the next goal changes, or a search fails with the old one).
@@ -84,12 +91,18 @@ class FieldPlannerConfig:
     nav_period: float = 1.0
     path_spacing: float = 1e-3
     improve_budget: int = 1500
+    deep_budget: int = 20000
+    deep_after_retreats: int = 2
 
     def __post_init__(self) -> None:
         for name in ("replan_period", "horizon", "ray_start", "urgent_margin", "nav_period"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
                 raise ValueError(f"FieldPlannerConfig.{name} must be a positive number, got {v!r}")
+        for name, lo in (("improve_budget", 1), ("deep_budget", 0), ("deep_after_retreats", 0)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < lo:
+                raise ValueError(f"FieldPlannerConfig.{name} must be an integer >= {lo}, got {v!r}")
 
 
 def _vec3(v: ArrayLike, name: str) -> NDArray[np.float64]:
@@ -140,6 +153,8 @@ class FieldPlanner:
         self._nav: tuple[int, int, NavigationFunction, float] | None = None
         self.command_goal = 0
         """Goals the command itself has passed (within the search's reach of them), in order."""
+        self._goal_retreats: dict[int, int] = {}
+        self._deep_done: tuple[int, int] | None = None  # (goal, its escapes) of the last deeper search
         self.follower = PlanFollower(self._plan_from(self.start, h / np.linalg.norm(h), 0), cfg.steering)
         self.goal_index = 0
         self.mode = "plan"
@@ -152,7 +167,6 @@ class FieldPlanner:
         self.retreats = 0
         self._command_goal_s = 0.0
         self._last_branch: float | None = None
-        self._goal_retreats: dict[int, int] = {}
 
     # ---- planning
     def _navigation(self, p: NDArray[np.float64], k: int, fresh: bool) -> NavigationFunction | None:
@@ -193,6 +207,17 @@ class FieldPlanner:
                              nav=self._navigation(p, k, False), arm=self.arm)
             if relaxed.status == REACHED:
                 return relaxed
+        escapes = (self.command_goal, self._goal_retreats.get(self.command_goal, 0))
+        if plan.status == PARTIAL and budget is None and at is None and cfg.deep_budget > scfg.max_expansions \
+                and escapes[1] >= cfg.deep_after_retreats and escapes != self._deep_done:
+            # the budget ran out (not a dead end: that is NO_PATH) again after escapes for this goal: a plan
+            # between rows of a rack can need more expansions than the budget most searches finish well
+            # within; one deeper search (once per escape) before backing the robot out of a way that exists
+            self._deep_done = escapes
+            deep = search(self.map, p, h, self.goals, self.tolerances, k, replace(scfg, max_expansions=cfg.deep_budget),
+                          cfg.repulsion, history=history, nav=self._navigation(p, k, False), arm=self.arm)
+            if deep.status == REACHED:
+                return deep
         return plan
 
     def _history(self, end: float, length: float, spacing: float = 0.02) -> NDArray[np.float64]:
