@@ -13,6 +13,7 @@ tool killed by SIGPIPE (what it wrote to files before that is complete).
 from __future__ import annotations
 
 import argparse
+import logging
 import os
 import sys
 from pathlib import Path
@@ -125,9 +126,26 @@ def _view(args: argparse.Namespace) -> int:
         return EXIT_BAD_INPUT
 
 
+class _PlannerNotes(logging.Handler):
+    """The planners' INFO lines, indented, on whatever standard output is when each comes."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        print(f"  planner: {record.getMessage()}", file=sys.stdout)
+
+
+def _show_planner_notes() -> None:
+    """Print the planners' INFO lines (why a planner gave up) to standard output, once per process; library
+    use and sweep workers keep logging's defaults (not shown)."""
+    log = logging.getLogger("navstack.planner")
+    if not any(isinstance(h, _PlannerNotes) for h in log.handlers):
+        log.addHandler(_PlannerNotes())
+        log.setLevel(logging.INFO)
+
+
 def _run(args: argparse.Namespace) -> int:
     from navstack.trial import run_trial
 
+    _show_planner_notes()
     # bad input raises before anything is simulated: WorldError, TrialInputError (an unwritable --out)
     world = _load(args, args.world)
     _warn_blocked_goals("navstack run", world)
@@ -152,6 +170,7 @@ def _demo(args: argparse.Namespace) -> int:
     from navstack.world import world_from_dict
 
     world = world_from_dict(paper_truss_world())
+    _show_planner_notes()
     controllers = list(dict.fromkeys(args.controller or ["slither", "tip-only"]))  # each once
     for controller in controllers:  # every output folder checked before anything is simulated
         check_out_dir(Path(args.out) / controller)

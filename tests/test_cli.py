@@ -142,3 +142,22 @@ def test_demo_checks_every_output_folder_before_simulating(tmp_path, capsys, mon
     (tmp_path / "tip-only").write_text("a file where the second controller's folder goes")
     assert main(["demo", "--out", str(tmp_path), "--no-animate"]) == 2
     assert "tip-only" in capsys.readouterr().err and not (tmp_path / "slither" / "result.json").exists()
+
+
+def test_run_and_demo_print_why_a_planner_gave_up(capsys):
+    """The field planner logs why it stalls (its stall_reason); ``navstack run`` and ``demo`` print that as it
+    happens (above the trial's summary), once however often they are set up."""
+    import logging
+
+    from navstack import cli
+
+    log = logging.getLogger("navstack.planner")
+    before = list(log.handlers), log.level
+    try:
+        cli._show_planner_notes()
+        cli._show_planner_notes()
+        logging.getLogger("navstack.planner.field").info("stalled at %s", "goals[0] (of 1): boxed in")
+        assert capsys.readouterr().out == "  planner: stalled at goals[0] (of 1): boxed in\n"
+    finally:
+        log.handlers[:] = before[0]
+        log.setLevel(before[1])

@@ -269,6 +269,8 @@ def test_a_fully_enclosed_goal_ends_stalled_without_touching():
           f"clearance {f.clearance * 1e3:.1f} mm")
     assert f.stalled and not f.reached
     assert f.clearance > 0.0
+    assert f.planner.stall_reason == "goals[0] (of 1): no way on after 6 escapes back along the path " \
+                                     "(EscapeConfig.max_retreats)"
 
 
 # ---------------------------------------------------------------------------- interface and isolation

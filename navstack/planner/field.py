@@ -22,6 +22,7 @@ and the filtered sensor readings (tests/test_isolation.py).  Units: metres, seco
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass, field, replace
 
@@ -48,6 +49,8 @@ from navstack.planner.search import (
 from navstack.planner.steering import PlanFollower, SteeringConfig
 from navstack.planner.types import TipCommand
 from navstack.retreat import Retreat
+
+_log = logging.getLogger(__name__)
 
 RELAXED_GOAL_FRACTION = 0.85
 """The goal ball (fraction of each tolerance) of a full search's second try when the first, at the search's own
@@ -159,6 +162,8 @@ class FieldPlanner:
         self.goal_index = 0
         self.mode = "plan"
         self.stalled = False
+        self.stall_reason: str | None = None
+        """Why the planner gave up (None while it has not)."""
         self.retreat: Retreat | None = None
         self._pending: tuple[float, Plan] | None = None
         self._planned_at = 0.0
@@ -275,10 +280,18 @@ class FieldPlanner:
         history = self._history(self.path.end_arc_length, 7.5 * cfg.search.link_length)
         return still_clear(self.map, f.plan, f.s, history, cfg.search, cfg.repulsion, self.arm)
 
+    def _stall(self, why: str) -> None:
+        """Give up: ``why`` becomes :attr:`stall_reason` (and an INFO line of this module's logger)."""
+        self.stalled = True
+        self.mode = "stalled"
+        self.stall_reason = f"goals[{self.command_goal}] (of {len(self.goals)}): {why}"
+        _log.info("stalled at %s", self.stall_reason)
+
     def _start_escape(self, fallback: Plan | None = None) -> None:
-        if self._goal_retreats.get(self.command_goal, 0) >= self.config.escape.max_retreats:
-            self.stalled = True  # every way tried for this goal has closed: give up rather than wander
-            self.mode = "stalled"
+        n = self._goal_retreats.get(self.command_goal, 0)
+        if n >= self.config.escape.max_retreats:
+            # every way tried for this goal has closed: give up rather than wander
+            self._stall(f"no way on after {n} escapes back along the path (EscapeConfig.max_retreats)")
             return
         # a new escape soon after the last branch point must go back beyond it (no retreat cycles)
         limit = self.path.end_arc_length
@@ -290,8 +303,8 @@ class FieldPlanner:
             if fallback is not None:
                 self.follower = PlanFollower(fallback, self.config.steering, self.follower.v)
                 return
-            self.stalled = True
-            self.mode = "stalled"
+            self._stall(f"no way on from here (boxed in), nor from any point up to "
+                        f"{self.config.escape.max_back:g} m back along the path")
             return
         self.retreats += 1
         self._goal_retreats[self.command_goal] = self._goal_retreats.get(self.command_goal, 0) + 1
