@@ -199,29 +199,31 @@ class FieldPlanner:
         k = self._passed(p, k)
         end = self.path.end_arc_length if at is None else at
         history = self._history(end, 7.5 * cfg.search.link_length)
-        plan = search(self.map, p, h, self.goals, self.tolerances, k, scfg, cfg.repulsion, history=history,
-                      nav=self._navigation(p, k, False), arm=self.arm)
+
+        def attempt(config: SearchConfig, fresh: bool = False) -> Plan:
+            return search(self.map, p, h, self.goals, self.tolerances, k, config, cfg.repulsion, history=history,
+                          nav=self._navigation(p, k, fresh), arm=self.arm)
+
+        plan = attempt(scfg)
         if plan.status != REACHED and self._nav is not None and self._nav[1] != self.map.version:
-            plan = search(self.map, p, h, self.goals, self.tolerances, k, scfg, cfg.repulsion,
-                          history=history, nav=self._navigation(p, k, True), arm=self.arm)  # the map has grown
-        if plan.status != REACHED and budget is None and at is None and scfg.goal_fraction < RELAXED_GOAL_FRACTION:
+            plan = attempt(scfg, fresh=True)  # the map has grown
+        if plan.status == REACHED or budget is not None or at is not None:
+            return plan  # (the tries below are for a full replan from where the robot is, not a branch point's:
+            # each of an escape's up to 15 would search again, 2.5 s per escape on a baffle world)
+        if scfg.goal_fraction < RELAXED_GOAL_FRACTION:
             # a goal at the edge of what the turning limit allows may be passed within its tolerance but
-            # not within the search's smaller ball: one more try with the larger one (not for the branch
-            # points of an escape: each of up to 15 would search twice, 2.5 s per escape on a baffle world)
-            relaxed = search(self.map, p, h, self.goals, self.tolerances, k,
-                             replace(scfg, goal_fraction=RELAXED_GOAL_FRACTION), cfg.repulsion, history=history,
-                             nav=self._navigation(p, k, False), arm=self.arm)
+            # not within the search's smaller ball: one more try with the larger one
+            relaxed = attempt(replace(scfg, goal_fraction=RELAXED_GOAL_FRACTION))
             if relaxed.status == REACHED:
                 return relaxed
         escapes = (self.command_goal, self._goal_retreats.get(self.command_goal, 0))
-        if plan.status == PARTIAL and budget is None and at is None and cfg.deep_budget > scfg.max_expansions \
+        if plan.status == PARTIAL and cfg.deep_budget > scfg.max_expansions \
                 and escapes[1] >= cfg.deep_after_retreats and escapes != self._deep_done:
             # the budget ran out (not a dead end: that is NO_PATH) again after escapes for this goal: a plan
             # between rows of a rack can need more expansions than the budget most searches finish well
             # within; one deeper search (once per escape) before backing the robot out of a way that exists
             self._deep_done = escapes
-            deep = search(self.map, p, h, self.goals, self.tolerances, k, replace(scfg, max_expansions=cfg.deep_budget),
-                          cfg.repulsion, history=history, nav=self._navigation(p, k, False), arm=self.arm)
+            deep = attempt(replace(scfg, max_expansions=cfg.deep_budget))
             if deep.status == REACHED:
                 return deep
         return plan
@@ -308,7 +310,7 @@ class FieldPlanner:
                         f"{self.config.escape.max_back:g} m back along the path")
             return
         self.retreats += 1
-        self._goal_retreats[self.command_goal] = self._goal_retreats.get(self.command_goal, 0) + 1
+        self._goal_retreats[self.command_goal] = n + 1
         s, plan = found
         self._last_branch = s
         self._pending = (s, plan)

@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from navstack.planner.reactive.config import PlannerConfig
-from navstack.planner.reactive.vectors import perpendicular
+from navstack.planner.reactive.vectors import along_and_across, perpendicular
 
 
 class GapCentering:
@@ -84,9 +84,7 @@ class GapCentering:
         cfg = self.config
         if P.shape[0] == 0:
             return np.zeros(3), np.inf
-        rel = P - x
-        a = rel @ e
-        lat = rel - a[:, None] * e
+        a, lat = along_and_across(P, x, e)
         reach = cfg.gap_search_radius + cfg.gap_clearance_cap + cfg.body_radius
         m = (a >= -cfg.gap_behind) & (a <= min(cfg.lookahead, dist + cfg.body_radius)) & (
             np.linalg.norm(lat, axis=1) < reach

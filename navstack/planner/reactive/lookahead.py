@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from navstack.planner.reactive.config import PlannerConfig
-from navstack.planner.reactive.vectors import lateral_preference, unit
+from navstack.planner.reactive.vectors import along_and_across, lateral_preference, unit
 
 
 class Lookahead:
@@ -34,9 +34,7 @@ class Lookahead:
         cfg = self.config
         if P.shape[0] == 0:
             return np.zeros(3), np.inf
-        rel = P - x
-        a = rel @ h
-        lat = rel - a[:, None] * h
+        a, lat = along_and_across(P, x, h)
         ld = np.linalg.norm(lat, axis=1)
         tube = cfg.body_radius + cfg.tube_margin
         m = (a > 0) & (a < horizon) & (ld < tube)

@@ -19,6 +19,15 @@ def perpendicular(h: NDArray[np.float64]) -> NDArray[np.float64]:
     return p / np.linalg.norm(p)
 
 
+def along_and_across(P: NDArray[np.float64], x: NDArray[np.float64], u: NDArray[np.float64]
+                     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Points ``P`` (N, 3) [m] seen from ``x`` along unit ``u``: how far along it (N,) [m] and the offset across
+    it (N, 3) [m] (the tube tests of the look-ahead, the gap centring and the wall follower)."""
+    rel = P - x
+    a = rel @ u
+    return a, rel - a[:, None] * u
+
+
 def lateral_preference(h: NDArray[np.float64], e: NDArray[np.float64], pref: NDArray[np.float64]
                        ) -> NDArray[np.float64]:
     """The side to turn to, off unit heading ``h``: the goal's side (unit goal direction ``e``) if it is

@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from navstack.planner.reactive.config import PlannerConfig
-from navstack.planner.reactive.vectors import perpendicular, unit
+from navstack.planner.reactive.vectors import along_and_across, perpendicular, unit
 
 
 def free_length(x: NDArray[np.float64], t: NDArray[np.float64], P: NDArray[np.float64], max_len: float,
@@ -29,9 +29,8 @@ def free_length(x: NDArray[np.float64], t: NDArray[np.float64], P: NDArray[np.fl
     points ``P`` (N, 3) [m]."""
     if P.shape[0] == 0:
         return max_len
-    rel = P - x
-    a = rel @ t
-    ld = np.linalg.norm(rel - a[:, None] * t, axis=1)
+    a, lat = along_and_across(P, x, t)
+    ld = np.linalg.norm(lat, axis=1)
     m = (a > 0) & (a < max_len) & (ld < radius)
     return float(a[m].min()) if np.any(m) else max_len
 
