@@ -22,7 +22,7 @@ from pybullet_utils.bullet_client import BulletClient
 from navstack.estimate import RangeEstimator
 from navstack.planner import TipCommand, TipPlanner
 from navstack.planner.field import FieldPlanner, FieldPlannerConfig
-from navstack.planner.search import turn_then_straight
+from navstack.planner.search import REACHED, ArmShape, search, turn_then_straight
 from navstack.sensing import SensorConfig, frame_from_direction
 from navstack.sim.rays import RaySensor
 
@@ -271,6 +271,51 @@ def test_a_fully_enclosed_goal_ends_stalled_without_touching():
     assert f.clearance > 0.0
     assert f.planner.stall_reason == "goals[0] (of 1): no way on after 6 escapes back along the path " \
                                      "(EscapeConfig.max_retreats)"
+
+
+def _planner_before_a_slotted_wall(arm_y: float | None, slot: bool = True) -> FieldPlanner:
+    """A planner at the origin heading +x, its goal 1.9 m on, behind a sensed wall at x = 0.5 with a 0.2 m
+    wide vertical slot (or none): the tip (r_block 35 mm) and the flange (80 mm) fit through it.  The arm
+    behind the flange lies ``arm_y`` to the side (carried so, it meets the wall beside the slot when the
+    flange passes it at 1.2 m from the tip); ``None``: no arm."""
+    arm = None if arm_y is None else ArmShape(
+        points=np.array([[-1.6, arm_y, 0.0], [-1.2, arm_y, 0.0], [-1.2, 0.0, 0.0]]), flange=np.array([-1.2, 0.0, 0.0]),
+        radius=0.06)
+    planner = FieldPlanner((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), [(1.9, 0.0, 0.0)], [0.02], arm=arm)
+    y, z = (v.ravel() for v in np.meshgrid(np.arange(-0.6, 0.6 + 1e-9, 0.01), np.arange(-0.4, 0.4 + 1e-9, 0.01)))
+    keep = np.abs(y) >= 0.1 - 1e-9 if slot else np.ones(len(y), dtype=bool)
+    planner.map.add_points(np.column_stack([np.full(keep.sum(), 0.5), y[keep], z[keep]]))
+    planner.map.mark_free(planner.map.origin + 0.5 * planner.map.free_dims * planner.map.config.free_cell, 10.0)
+    return planner
+
+
+def _searched(planner: FieldPlanner, arm) -> int:
+    return search(planner.map, np.zeros(3), np.array([1.0, 0.0, 0.0]), planner.goals, planner.tolerances, 0,
+                  CFG.search, CFG.repulsion, arm=arm).status
+
+
+def test_a_way_only_the_arm_blocks_is_named_in_the_stall_reason():
+    planner = _planner_before_a_slotted_wall(arm_y=0.15)
+    assert _searched(planner, planner.arm) != REACHED  # the arm beside the flange meets the wall
+    assert _searched(planner, None) == REACHED  # the serpentine and its flange pass the slot
+    assert planner.arm_blocks_the_way()
+    planner._stall("no way on from here")
+    assert planner.stall_reason == (
+        "goals[0] (of 1): no way on from here; the serpentine alone has a way on, but a search of 20000 "
+        "expansions found none that keeps the arm, carried after it in its start posture, SearchConfig.arm_margin "
+        "= 0.02 m from every sensed surface")
+    assert planner.stalled and planner.mode == "stalled"
+
+
+@pytest.mark.parametrize("arm_y, slot", [(None, True), (0.15, False), (0.0, True)],
+                         ids=["no arm", "no slot", "arm in line"])
+def test_the_stall_reason_blames_the_arm_only_when_it_alone_blocks(arm_y, slot):
+    planner = _planner_before_a_slotted_wall(arm_y, slot)
+    if arm_y == 0.0:
+        assert _searched(planner, planner.arm) == REACHED  # the arm in line with the flange follows it through
+    assert not planner.arm_blocks_the_way()
+    planner._stall("why")
+    assert planner.stall_reason == "goals[0] (of 1): why"
 
 
 # ---------------------------------------------------------------------------- interface and isolation

@@ -283,10 +283,37 @@ class FieldPlanner:
         history = self._history(self.path.end_arc_length, 7.5 * cfg.search.link_length)
         return still_clear(self.map, f.plan, f.s, history, cfg.search, cfg.repulsion, self.arm)
 
+    def arm_blocks_the_way(self) -> bool:
+        """Whether only the arm blocks the way on from the commanded state: the search through every remaining
+        goal reaches them for the serpentine alone (the flange still checked) but not with the arm's capsules.
+        False without an arm."""
+        if self.arm is None:
+            return False
+        p, h = self.follower.state()
+        history = self._history(self.path.end_arc_length, 7.5 * self.config.search.link_length)
+        k = self._passed(p, self.command_goal)
+
+        def reached(arm: ArmShape | None, config: SearchConfig) -> bool:
+            return search(self.map, p, h, self.goals, self.tolerances, k, config, self.config.repulsion,
+                          history=history, nav=self._navigation(p, k, False), arm=arm).status == REACHED
+
+        return reached(None, self.config.search) and not reached(self.arm, self._arm_search())
+
+    def _arm_search(self) -> SearchConfig:
+        """The search that must fail before the arm is blamed: the deeper search's budget."""
+        scfg = self.config.search
+        return replace(scfg, max_expansions=max(scfg.max_expansions, self.config.deep_budget))
+
     def _stall(self, why: str) -> None:
-        """Give up: ``why`` becomes :attr:`stall_reason` (and an INFO line of this module's logger)."""
+        """Give up: ``why`` becomes :attr:`stall_reason` (and an INFO line of this module's logger), with a
+        note when only the arm behind the serpentine blocks the way."""
         self.stalled = True
         self.mode = "stalled"
+        if self.arm_blocks_the_way():
+            why += ("; the serpentine alone has a way on, but a search of "
+                    f"{self._arm_search().max_expansions} expansions found none that keeps the arm, carried after "
+                    f"it in its start posture, SearchConfig.arm_margin = {self.config.search.arm_margin:g} m from "
+                    "every sensed surface")
         self.stall_reason = f"goals[{self.command_goal}] (of {len(self.goals)}): {why}"
         _log.info("stalled at %s", self.stall_reason)
 
