@@ -661,7 +661,7 @@ def test_add_points_without_update_accumulates_new_points():
 # ---------------------------------------------------------------------------- configuration
 @pytest.mark.parametrize(("name", "value"), [
     ("voxel", 0.0), ("voxel", -0.01), ("bucket", np.nan), ("free_cell", np.inf), ("margin", True),
-    ("hit_backoff", "3 cm"), ("clear_radius", 0.0), ("clear_backoff", -1.0), ("average", 0), ("average", 2.0),
+    ("hit_backoff", "3 cm"), ("clear_radius", 0.0), ("clear_backoff", -1.0), ("sensed_clear_radius", 0.0), ("average", 0), ("average", 2.0),
     ("average", True), ("shadow_depths", [0.01]), ("shadow_depths", (0.01, -0.02)), ("shadow_depths", (True,)),
     ("forget_moved", 1), ("detect_motion", 0), ("motion_contradictions", 0), ("motion_window", 1.5),
 ])
@@ -774,6 +774,32 @@ def test_once_motion_is_sensed_the_passes_before_count_as_if_the_map_had_forgott
     assert smap.n_points == 2
     smap.update(*through(a, c))
     assert smap.n_points == 0
+
+
+@pytest.mark.parametrize("beside", [DETECT.clear_radius + 0.002, DETECT.sensed_clear_radius - 0.001])
+def test_once_motion_is_sensed_a_ray_clears_what_it_passes_within_the_wider_radius(beside):
+    """Before motion is sensed a ray counts against a point within ``clear_radius`` of it (4 mm); once sensed,
+    within ``sensed_clear_radius`` (1 cm: the rays lie centimetres apart where a moved surface was): a point
+    6 or 9 mm beside a ray is kept before and forgotten after; one 2 mm beyond the wider radius is kept."""
+    cfg = dataclasses.replace(DETECT, motion_contradictions=1, motion_window=1, max_evidence=2)
+    p, q = np.array([0.305, 0.205, 0.195]), np.array([0.305, 0.405, 0.195])
+    far = p - 0.02 * Y
+    smap = _map(cfg)
+    smap.add_points([p, p, far, far])  # both established (evidence 2 = max_evidence)
+    near = ([p - 0.2 * X + beside * Y], [X], [0.03], [0.4], [False], [True])
+    for _ in range(3):
+        smap.update(*near)
+    assert smap.n_points == 2 and not smap.forgetting  # beside it (> clear_radius): no pass, no contradiction
+    smap.add_points([q, q])
+    smap.update([q - 0.2 * X], [X], [0.03], [0.4], [False], [True])  # through an established point: motion
+    assert smap.forgetting and smap.n_points == 3  # q: 2 - 1
+    for _ in range(2):
+        smap.update(*near)
+    assert smap.n_points == 2  # p forgotten (2 passes); far, 26-29 mm from the ray, kept
+    beyond = far - 0.2 * X + (cfg.sensed_clear_radius + 0.002) * np.array([0.0, 0.0, 1.0])
+    for _ in range(3):
+        smap.update([beyond], [X], [0.03], [0.4], [False], [True])
+    assert smap.n_points == 2
 
 
 def test_forget_moved_forgets_from_the_start():

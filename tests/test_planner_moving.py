@@ -51,8 +51,9 @@ DOOR_CONFIGS = {
 @pytest.mark.slow
 def test_a_door_that_clears_is_taken_once_the_rays_see_through_it():
     """With forgetting the door is taken; without it the sphere's surface stays in the door in the map.  A map
-    that senses the motion itself, and then counts the passes before as forgetting would have, ends the trial
-    exactly as one told from the start that obstacles move (measured on seeds 0-4: the same results)."""
+    that senses the motion itself, and then counts the passes before as forgetting would have, takes it as one
+    told from the start that obstacles move does (it ended step for step the same until it began clearing with
+    the wider ``sensed_clear_radius`` once motion is sensed: now 26.0 s against 25.9 s, seed 0)."""
     base = TrialConfig()
     results = {}
     for name, map_config in DOOR_CONFIGS.items():
@@ -63,7 +64,6 @@ def test_a_door_that_clears_is_taken_once_the_rays_see_through_it():
         assert r.metrics["contacts"] == 0
         assert r.success == (name != "never")
         results[name] = dataclasses.replace(r, wall_time=0.0)
-    assert results["sensed"] == results["forget_moved"]
 
 
 def test_forgetting_needs_repeated_passes_and_the_planner_is_not_told_whether_obstacles_move():
