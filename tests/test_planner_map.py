@@ -661,7 +661,8 @@ def test_add_points_without_update_accumulates_new_points():
 # ---------------------------------------------------------------------------- configuration
 @pytest.mark.parametrize(("name", "value"), [
     ("voxel", 0.0), ("voxel", -0.01), ("bucket", np.nan), ("free_cell", np.inf), ("margin", True),
-    ("hit_backoff", "3 cm"), ("clear_radius", 0.0), ("clear_backoff", -1.0), ("sensed_clear_radius", 0.0), ("average", 0), ("average", 2.0),
+    ("hit_backoff", "3 cm"), ("clear_radius", 0.0), ("clear_backoff", -1.0), ("sensed_clear_radius", 0.0),
+    ("average", 0), ("average", 2.0),
     ("average", True), ("shadow_depths", [0.01]), ("shadow_depths", (0.01, -0.02)), ("shadow_depths", (True,)),
     ("forget_moved", 1), ("detect_motion", 0), ("motion_contradictions", 0), ("motion_window", 1.5),
 ])
