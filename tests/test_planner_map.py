@@ -662,6 +662,7 @@ def test_add_points_without_update_accumulates_new_points():
 @pytest.mark.parametrize(("name", "value"), [
     ("voxel", 0.0), ("voxel", -0.01), ("bucket", np.nan), ("free_cell", np.inf), ("margin", True),
     ("hit_backoff", "3 cm"), ("clear_radius", 0.0), ("clear_backoff", -1.0), ("sensed_clear_radius", 0.0),
+    ("sensed_clear_slope", -0.1), ("sensed_clear_slope", 1.0), ("sensed_clear_slope", np.nan),
     ("average", 0), ("average", 2.0),
     ("average", True), ("shadow_depths", [0.01]), ("shadow_depths", (0.01, -0.02)), ("shadow_depths", (True,)),
     ("forget_moved", 1), ("detect_motion", 0), ("motion_contradictions", 0), ("motion_window", 1.5),
@@ -781,8 +782,9 @@ def test_once_motion_is_sensed_the_passes_before_count_as_if_the_map_had_forgott
 def test_once_motion_is_sensed_a_ray_clears_what_it_passes_within_the_wider_radius(beside):
     """Before motion is sensed a ray counts against a point within ``clear_radius`` of it (4 mm); once sensed,
     within ``sensed_clear_radius`` (1 cm: the rays lie centimetres apart where a moved surface was): a point
-    6 or 9 mm beside a ray is kept before and forgotten after; one 2 mm beyond the wider radius is kept."""
-    cfg = dataclasses.replace(DETECT, motion_contradictions=1, motion_window=1, max_evidence=2)
+    6 or 9 mm beside a ray is kept before and forgotten after; one 2 mm beyond the wider radius is kept (the
+    radius's growth along the ray, ``sensed_clear_slope``, off here: the next test)."""
+    cfg = dataclasses.replace(DETECT, motion_contradictions=1, motion_window=1, max_evidence=2, sensed_clear_slope=0.0)
     p, q = np.array([0.305, 0.205, 0.195]), np.array([0.305, 0.405, 0.195])
     far = p - 0.02 * Y
     smap = _map(cfg)
@@ -801,6 +803,44 @@ def test_once_motion_is_sensed_a_ray_clears_what_it_passes_within_the_wider_radi
     for _ in range(3):
         smap.update([beyond], [X], [0.03], [0.4], [False], [True])
     assert smap.n_points == 2
+
+
+@pytest.mark.parametrize("along", [0.1, 0.25])
+def test_once_motion_is_sensed_the_clean_pass_radius_grows_along_the_ray(along):
+    """Once sensed, a ray clears the points within ``sensed_clear_radius + sensed_clear_slope a`` of its line,
+    ``a`` along it (a cone): at 0.1 and 0.25 m a point 2 mm inside that radius goes, one 2 mm outside stays."""
+    cfg = dataclasses.replace(DETECT, motion_contradictions=1, motion_window=1, max_evidence=2)
+    radius = cfg.sensed_clear_radius + cfg.sensed_clear_slope * along
+    o = np.array([0.105, 0.205, 0.195])
+    inside, outside = o + along * X + (radius - 0.002) * Y, o + along * X - (radius + 0.002) * Y
+    q = np.array([0.305, 0.405, 0.195])
+    smap = _map(cfg)
+    smap.add_points([inside, inside, outside, outside, q, q])
+    smap.update([q - 0.2 * X], [X], [0.03], [0.4], [False], [True])  # through an established point: motion
+    assert smap.forgetting and smap.n_points == 3
+    for _ in range(2):
+        smap.update([o], [X], [0.03], [0.4], [False], [True])
+    kept = smap.points
+    assert len(kept) == 2 and np.linalg.norm(kept - outside, axis=1).min() < 1e-9
+
+
+def test_begin_forgetting_drops_what_forgetting_would_have_and_forgets_from_then_on():
+    """As motion sensed: a weak point passed cleanly twice (latent evidence 0) goes at once, the version
+    changes and ``forgotten`` counts it; a second call changes nothing; later clean passes forget the other."""
+    smap = _map(DETECT)
+    a, b = np.array([0.305, 0.205, 0.195]), np.array([0.305, 0.405, 0.195])
+    smap.add_points([a, b])
+    for _ in range(2):
+        smap.update([a - 0.2 * X], [X], [0.03], [0.4], [False], [True])
+    assert smap.n_points == 2 and not smap.forgetting
+    version, revision = smap.version, smap.revision
+    assert smap.begin_forgetting() == 1
+    assert smap.forgetting and smap.n_points == 1 and smap.version > version and smap.revision > revision
+    assert smap.motion_sensed_at == smap.readings and smap.forgotten == 1
+    assert smap.begin_forgetting() == 0
+    for _ in range(2):
+        smap.update([b - 0.2 * X], [X], [0.03], [0.4], [False], [True])
+    assert smap.n_points == 0 and smap.forgotten == 2
 
 
 def test_forget_moved_forgets_from_the_start():

@@ -41,8 +41,12 @@ with it all five ended exactly as with forgetting from the start (the same steps
 is sensed, a clean pass counts within ``sensed_clear_radius`` (1 cm) instead of ``clear_radius``: the tip's
 forward rays lie 2-7 cm apart where a door's face was, and at 4 mm most of the face stayed in the map for good
 (a review's sliding door: 191 stale points 16 s after it had gone; the planner stalled boxed in at 4 of 9 seeds,
-and reached the goal at all 9 with the wider radius). The door world then differs from forgetting from the start
-(26.0 s against 25.9 s, both reached). No one tells
+and reached the goal at all 9 with the wider radius), and the radius grows along the ray by ``sensed_clear_slope``
+(0.12 m per m): a tip that holds still in front of a window, waiting for its door to open, kept 326 of the door's
+points between its rays with a fixed 1 cm, and 29 with the cone (``sliding-door`` seed 653817592: reached after
+waiting, stalled before). The door world then differs from forgetting from the start (26.0 s against 25.9 s, both
+reached). A planner boxed in by what its map holds may also turn forgetting on (:meth:`SensedMap.begin_forgetting`):
+a door seen only while it moved is never established, so never contradicted. No one tells
 the map whether the world holds moving obstacles (spec 2b). Static worlds do contradict established points,
 mostly where rays graze a surface lengthwise (the noisy points lie within ``clear_radius`` of a ray running
 just outside it): measured over 59 static trials (48 generated, 11 example worlds), at most 21 in one
@@ -98,6 +102,9 @@ class MapConfig:
             ``clear_radius``: the forward rays lie 2-7 cm apart 0.2 m ahead, so a 4 mm radius leaves most of a
             surface that moved away (a door's face) in the map for good (sliding_door.json: 191 stale points,
             68 at full evidence, 16 s after the door had gone; the planner stalled boxed in).
+        sensed_clear_slope: once motion is sensed, the clean-pass radius grows by this much per metre along the
+            ray (a cone, half the forward rings' 0.23 rad spacing): a tip that holds still, waiting for a door
+            to open, sees the whole window clear, not only the lines its rays take.
     """
 
     voxel: float = 0.01
@@ -109,6 +116,7 @@ class MapConfig:
     clear_radius: float = 0.004
     clear_backoff: float = 0.05
     sensed_clear_radius: float = 0.01
+    sensed_clear_slope: float = 0.12
     forget_moved: bool = False
     detect_motion: bool = True
     motion_contradictions: int = 150
@@ -123,6 +131,9 @@ class MapConfig:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
                 raise ValueError(f"MapConfig.{name} must be a positive length [m], got {v!r}")
+        v = self.sensed_clear_slope
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 <= v < 1:
+            raise ValueError(f"MapConfig.sensed_clear_slope must be a number in [0, 1) [m/m], got {v!r}")
         ratio = self.bucket / self.voxel
         if abs(ratio - round(ratio)) > 1e-9:
             raise ValueError(f"MapConfig.bucket ({self.bucket}) must be a whole multiple of voxel ({self.voxel})")
@@ -179,10 +190,10 @@ def nearest_distance(px, py, pz, r, P, alive, head, nxt, origin, bucket, dims): 
 
 
 @numba.njit(cache=True)
-def _pass_bucket(i, j, k, ray, s0, s1, clear_r, P, alive, evidence, latent, mark, tag, head, nxt, forget,
+def _pass_bucket(i, j, k, ray, s0, s1, clear_r, slope, P, alive, evidence, latent, mark, tag, head, nxt, forget,
                  established, seen, reading):  # pragma: no cover - jitted
     """A clean pass of the ray ``ray = (ox, oy, oz, dx, dy, dz)`` between ``s0`` and ``s1`` through the live
-    points of bucket (i, j, k) within ``clear_r`` of its line.
+    points of bucket (i, j, k) within ``clear_r + slope a`` of its line, ``a`` [m] along the ray.
 
     ``forget``: one less evidence each, once per ray (``mark[q] == tag`` once counted for the ray ``tag``: the
     DDA visits a bucket up to 27 times); a point out of evidence is removed.  Otherwise the evidence stays,
@@ -203,7 +214,8 @@ def _pass_bucket(i, j, k, ray, s0, s1, clear_r, P, alive, evidence, latent, mark
                 lx = wx - a * dx
                 ly = wy - a * dy
                 lz = wz - a * dz
-                if lx * lx + ly * ly + lz * lz < clear_r * clear_r:
+                r = clear_r + slope * a
+                if lx * lx + ly * ly + lz * lz < r * r:
                     if not forget:
                         if evidence[q] >= established and seen[q] != reading:
                             seen[q] = reading
@@ -241,13 +253,14 @@ def _dda_start(p, d, idx, origin, bucket):  # pragma: no cover - jitted
 
 
 @numba.njit(cache=True)
-def _pass_along(ray, s0, s1, clear_r, P, alive, evidence, latent, mark, tag, head, visit, nxt, origin, bucket, dims,
-                forget, established, seen, reading):  # pragma: no cover - jitted
+def _pass_along(ray, s0, s1, clear_r, slope, P, alive, evidence, latent, mark, tag, head, visit, nxt, origin, bucket,
+                dims, forget, established, seen, reading):  # pragma: no cover - jitted
     """The clean pass of ``ray = (ox, oy, oz, dx, dy, dz)`` over [s0, s1] through the points within
-    ``clear_r`` of it (:func:`_pass_bucket`).  A 3D DDA (Amanatides and Woo 1987) walks the buckets the segment
-    crosses; in each, the buckets that the box around the segment's part there, grown by ``clear_r``, touches
-    are scanned, each once per ray (``visit[bucket] == tag`` once scanned).  Every point within ``clear_r`` of
-    the segment lies in one of them (a point stays in the voxel, so the bucket, it was first put in).  Returns
+    ``clear_r + slope a`` of it, ``a`` along the ray (:func:`_pass_bucket`).  A 3D DDA (Amanatides and Woo
+    1987) walks the buckets the segment crosses; in each, the buckets that the box around the segment's part
+    there, grown by the radius at its far end, touches are scanned, each once per ray (``visit[bucket] == tag``
+    once scanned).  Every point within that radius of the segment lies in one of them (a point stays in the
+    voxel, so the bucket, it was first put in).  Returns
     ``(removed, contradicted)``."""
     removed = 0
     contradicted = 0
@@ -258,7 +271,6 @@ def _pass_along(ray, s0, s1, clear_r, P, alive, evidence, latent, mark, tag, hea
                                                                                                 dims, 2)
     step, tmax, tdelta = _dda_start(p, d, (i, j, k), origin, bucket)
     length = s1 - s0
-    grow = clear_r + 1e-9  # and a nanometre for a point a running mean rounded onto its voxel's face
     lo = np.empty(3, dtype=np.int64)
     hi = np.empty(3, dtype=np.int64)
     t_in = 0.0
@@ -269,6 +281,8 @@ def _pass_along(ray, s0, s1, clear_r, P, alive, evidence, latent, mark, tag, hea
         if tmax[2] < tmax[c]:
             c = 2
         t_out = min(tmax[c], length)
+        grow = clear_r + slope * (s0 + t_out) + 1e-9  # and a nanometre for a point a running mean rounded onto
+        # its voxel's face
         for a in range(3):
             x0, x1 = p[a] + t_in * d[a], p[a] + t_out * d[a]
             lo[a] = _cell(min(x0, x1) - grow, origin, bucket, dims, a)
@@ -278,8 +292,8 @@ def _pass_along(ray, s0, s1, clear_r, P, alive, evidence, latent, mark, tag, hea
                 for cc in range(lo[2], hi[2] + 1):
                     if visit[a, b, cc] != tag:
                         visit[a, b, cc] = tag
-                        r, n = _pass_bucket(a, b, cc, ray, s0, s1, clear_r, P, alive, evidence, latent, mark, tag,
-                                            head, nxt, forget, established, seen, reading)
+                        r, n = _pass_bucket(a, b, cc, ray, s0, s1, clear_r, slope, P, alive, evidence, latent, mark,
+                                            tag, head, nxt, forget, established, seen, reading)
                         removed += r
                         contradicted += n
         if tmax[c] > length:
@@ -316,7 +330,7 @@ def _free_along(ox, oy, oz, dx, dy, dz, s, e, free, forigin, fcell, fdims):  # p
 
 @numba.njit(cache=True)
 def _carve(origins, dirs, starts, ends, free, forigin, fcell, fdims, P, alive, evidence, latent, mark, tag0, head,
-           visit, nxt, borigin, bucket, bdims, clear_r, clear_back, forget, established,
+           visit, nxt, borigin, bucket, bdims, clear_r, slope, clear_back, forget, established,
            seen, reading):  # pragma: no cover - jitted
     """Mark the cells along each ray [start, end) seen free, and pass each ray's clear part (up to ``end -
     clear_back``) through the points it meets (:func:`_pass_along`: ``forget`` them, or count the
@@ -330,8 +344,8 @@ def _carve(origins, dirs, starts, ends, free, forigin, fcell, fdims, P, alive, e
         e_clear = ends[r] - clear_back
         if clear_r <= 0.0 or e_clear <= starts[r]:
             continue
-        n_removed, n_contradicted = _pass_along(ray, starts[r], e_clear, clear_r, P, alive, evidence, latent, mark,
-                                                tag0 + r, head, visit, nxt, borigin, bucket, bdims, forget,
+        n_removed, n_contradicted = _pass_along(ray, starts[r], e_clear, clear_r, slope, P, alive, evidence, latent,
+                                                mark, tag0 + r, head, visit, nxt, borigin, bucket, bdims, forget,
                                                 established, seen, reading)
         removed += n_removed
         contradicted += n_contradicted
@@ -560,6 +574,8 @@ class SensedMap:
         self.revision = 0
         """Incremented by every call that may change a point at all (:meth:`update`, :meth:`add_points`): what a
         snapshot of the points (:func:`navstack.planner.proximity.point_index`) is valid for."""
+        self.forgotten = 0
+        """Points forgotten so far (clean passes took their evidence, or forgetting began without it left)."""
         self.snapshot: tuple | None = None
         """``(revision, snapshot)``: the last snapshot of the points made by a proximity index, for reuse."""
         self.new_points = np.empty((0, 3))
@@ -673,13 +689,15 @@ class SensedMap:
             o, d, st, ends, self.free, self.origin, cfg.free_cell, self.free_dims, self._P, self._alive, self._evidence,
             self._latent, self._mark, self._rays, self.head, self._visit, self._next, self.origin, cfg.bucket,
             self.bucket_dims,
-            self._clear_radius() if passing else 0.0, cfg.clear_backoff, self.forgetting, cfg.max_evidence, self._seen,
+            self._clear_radius() if passing else 0.0, self._clear_slope(), cfg.clear_backoff, self.forgetting,
+            cfg.max_evidence, self._seen,
             self.readings)
         self._rays += o.shape[0]
         self._recent[self.readings % cfg.motion_window] = self.contradicted
         if not self.forgetting and self._recent.sum() >= cfg.motion_contradictions:
             removed += self._begin_forgetting()
         if removed:
+            self.forgotten += removed
             self.version += 1
             self.revision += 1
         if n_hit:  # the hits, then their shadows depth by depth, in one pass
@@ -693,6 +711,23 @@ class SensedMap:
         """The clean-pass radius: ``sensed_clear_radius`` once motion has been sensed, else ``clear_radius``."""
         cfg = self.config
         return cfg.sensed_clear_radius if self.motion_sensed_at is not None else cfg.clear_radius
+
+    def _clear_slope(self) -> float:
+        """How fast the clean-pass radius grows along a ray: ``sensed_clear_slope`` once motion has been sensed."""
+        return self.config.sensed_clear_slope if self.motion_sensed_at is not None else 0.0
+
+    def begin_forgetting(self) -> int:
+        """Forget from now on, as if motion had been sensed (a planner boxed in by what it has seen, waiting: what
+        moved may have been seen only in passing, never often enough to be established and contradicted); no
+        change once forgetting.  Returns how many points went at once."""
+        if self.forgetting:
+            return 0
+        removed = self._begin_forgetting()
+        if removed:
+            self.forgotten += removed
+            self.version += 1
+            self.revision += 1
+        return removed
 
     def _begin_forgetting(self) -> int:
         """Motion is sensed: forget from now on, starting from the evidence forgetting would have left
