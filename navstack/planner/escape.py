@@ -42,6 +42,9 @@ class EscapeConfig:
         speed: retreat speed [m/s].
         accel: retreat acceleration [m/s^2].
         max_retreats: retreats allowed for one goal; one more and the planner gives up (``stalled``).
+        patience: boxed in (no way on from the command, nor from any branch point), the planner holds still and
+            searches again from where it is each time the map has changed (at most once a second) for this
+            long [s] before it gives up: an obstacle may move away (a door that opens later); 0: at once.
     """
 
     step: float = 0.1
@@ -50,12 +53,16 @@ class EscapeConfig:
     speed: float = 0.05
     accel: float = 0.1
     max_retreats: int = 6
+    patience: float = 20.0
 
     def __post_init__(self) -> None:
         for name in ("step", "min_back", "max_back", "speed", "accel"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
                 raise ValueError(f"EscapeConfig.{name} must be a positive number, got {v!r}")
+        v = self.patience
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+            raise ValueError(f"EscapeConfig.patience must be a number >= 0 [s], got {v!r}")
         if isinstance(self.max_retreats, bool) or not isinstance(self.max_retreats, int) or self.max_retreats < 0:
             raise ValueError(f"EscapeConfig.max_retreats must be an integer >= 0, got {self.max_retreats!r}")
 

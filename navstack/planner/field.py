@@ -57,6 +57,11 @@ RELAXED_GOAL_FRACTION = 0.85
 ``goal_fraction``, reaches no plan: a goal at the edge of the turning limit (15.6 mm from any path of radius
 0.25 m, tolerance 20 mm) is then passed within its tolerance instead of stalling the planner."""
 
+WAIT_ESCAPE_PERIODS = 4
+"""Waiting boxed in, an escape (up to 15 searches back along the path) is tried again at most every this many
+``nav_period`` [s]; from the command, every ``nav_period`` (the map forgetting): in a static world boxed in, an
+escape each second cost up to 28 s of wall time per trial (a three-baffle world: 54 s against 40 s)."""
+
 __all__ = ["FieldPlanner", "FieldPlannerConfig"]
 
 
@@ -172,6 +177,9 @@ class FieldPlanner:
         self.retreats = 0
         self._command_goal_s = 0.0
         self._last_branch: float | None = None
+        self._wait_since: float | None = None  # when the planner, boxed in, began to wait [s]
+        self._wait_forgotten = -1  # the map's count of forgotten points at the last search while waiting
+        self._wait_escaped = -math.inf  # when the last escape while waiting was tried [s]
 
     # ---- planning
     def _navigation(self, p: NDArray[np.float64], k: int, fresh: bool) -> NavigationFunction | None:
@@ -332,9 +340,16 @@ class FieldPlanner:
         if found is None:
             if fallback is not None:
                 self.follower = PlanFollower(fallback, self.config.steering, self.follower.v)
-                return
-            self._stall(f"no way on from here (boxed in), nor from any point up to "
-                        f"{self.config.escape.max_back:g} m back along the path")
+            elif self.config.escape.patience > 0:
+                # boxed in: hold still while the map may still change; what boxes the tip in may have moved (or
+                # still move) without the map having seen it often enough to sense it: the map forgets from now
+                self._wait_since = self._wait_escaped = self.time
+                self._wait_forgotten = self.map.forgotten  # (what goes as forgetting begins counts: search again)
+                if self.map.config.detect_motion:
+                    self.map.begin_forgetting()
+                self.mode = "wait"
+            else:
+                self._stall(self._boxed_in())
             return
         self.retreats += 1
         self._goal_retreats[self.command_goal] = n + 1
@@ -343,6 +358,42 @@ class FieldPlanner:
         self._pending = (s, plan)
         self.retreat = Retreat(self.path, s, self.config.escape.speed, self.config.escape.accel)
         self.mode = "retreat"
+
+    def _boxed_in(self) -> str:
+        return (f"no way on from here (boxed in), nor from any point up to {self.config.escape.max_back:g} m back "
+                f"along the path")
+
+    def _step_wait(self) -> TipCommand:
+        """Boxed in: hold the command.  While the map forgets, each time it has forgotten points (at most every
+        ``nav_period``) search again from the command, and every ``WAIT_ESCAPE_PERIODS`` of those back along the
+        path too (an escape: up to 15 searches); give up after ``EscapeConfig.patience`` still boxed in.  A map
+        that forgets nothing costs no search."""
+        cfg = self.config
+        since = self._wait_since
+        assert since is not None
+        if self.map.forgetting and self.map.forgotten != self._wait_forgotten \
+                and self.time - self._planned_at >= cfg.nav_period:
+            self._wait_forgotten = self.map.forgotten
+            if self.time - self._wait_escaped >= WAIT_ESCAPE_PERIODS * cfg.nav_period:
+                self._wait_escaped = self.time
+                self._wait_since = None
+                self._replan()  # a way on, an escape back along the path, or boxed in again (waiting on)
+                if self._wait_since is None:
+                    return self.step_hold(0.0)
+                self._wait_since = since
+            else:
+                p, h = self.follower.state()
+                plan = self._plan_from(p, h, self.command_goal)
+                self._planned_at, self._planned_version = self.time, self.map.version
+                if plan.status != NO_PATH:  # a way on, or one to explore (the budget spent), as an escape's
+                    self._wait_since = None
+                    self.follower = PlanFollower(plan, cfg.steering, 0.0)
+                    self.mode = "plan" if plan.status == REACHED else "explore"
+                    return self.step_hold(0.0)
+        if self.time - since >= cfg.escape.patience:
+            self._stall(f"{self._boxed_in()}; no way either after waiting {cfg.escape.patience:g} s "
+                        f"(EscapeConfig.patience) for the map to change")
+        return self.step_hold(0.0)
 
     def _needs_replan(self) -> bool:
         cfg = self.config
@@ -386,9 +437,11 @@ class FieldPlanner:
             return TipCommand(self.path.head, np.zeros(3), True, "stalled")
         if self.retreat is not None:
             return self._step_retreat(dt)
+        if self._wait_since is not None:
+            return self._step_wait()
         if changed or self._needs_replan():
             self._replan()
-            if self.retreat is not None or self.stalled:
+            if self.retreat is not None or self.stalled or self._wait_since is not None:
                 return self.step_hold(dt)
         x_d, _ = self.follower.state()
         body = self.config.repulsion.body_radius
