@@ -206,3 +206,8 @@ register_family("dead-end", "a box tube or cage open towards the robot, the goal
                 "navstack.generate.dead_end:family_dead_end", seed_id=7,
                 difficulty="half width 0.11 -> 0.08 m, depth 0.3 -> 0.5 m, axis tilt (and so mouth offset) up to "
                            "10 -> 30 deg, 0 -> 2 clutter items beside the approach")
+register_family("sliding-door", "a wall with a window, shut by a door behind it that slides away later (a moving "
+                "obstacle); goal: the destination only",
+                "navstack.generate.sliding_door:family_sliding_door", seed_id=8,
+                difficulty="window 0.2 -> 0.15 m, turn onto its axis up to 10 -> 25 deg, the door opens at 2-6 -> "
+                           "8-12 s")

@@ -27,6 +27,9 @@ The package, one concept per module:
     (``slot-rack``), :mod:`~navstack.generate.sparse_truss` (``sparse-truss``),
     :mod:`~navstack.generate.bend_clutter` (``bend-clutter``);
   - :mod:`~navstack.generate.dead_end` (``dead-end``): the goal at the back of a pocket, ``retract``;
+  - :mod:`~navstack.generate.sliding_door` (``sliding-door``): a window shut by a door that slides away later
+    (a moving obstacle; the checks take obstacles where their motions end, :func:`~navstack.generate.checks.
+    settled`, and the time limit adds the time the last one stops);
 * :mod:`~navstack.generate.issue_worlds`: the fixed worlds in ``worlds/``.
 
 ``generate_world(..., retract=True)`` writes ``"retract": true`` into any family's world (the robot must

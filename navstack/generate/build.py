@@ -118,7 +118,9 @@ def finish(cand: Candidate, name: str, family: str | None, cfg: CheckConfig, rob
         # and the arm pass through the same configurations in reverse order (checks 2-5 cover both ways)
         gen["retract"] = True
         gen["return_length"] = round(rep.path_length, 4)
-    return build_world(name, family, cand, extra, time_limit_for(rep.path_length, retract), retract), rep, ""
+    settle = max((o.motion.stop for o in world.obstacles if getattr(o, "motion", None) is not None), default=0.0)
+    limit = time_limit_for(rep.path_length, retract) + math.ceil(settle)  # run_checks refused a motion without end
+    return build_world(name, family, cand, extra, limit, retract), rep, ""
 
 
 def _candidate(family: str, rng: np.random.Generator, difficulty: float, cfg: CheckConfig,

@@ -9,7 +9,7 @@ through the reference via points that :func:`reference_path` builds, slithered b
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -19,7 +19,7 @@ from scipy.spatial.transform import Rotation
 from navstack.generate.geometry import FloatArray, obstacle_distance, segment_samples
 from navstack.guide import GuidePath, goal_spline
 from navstack.jpl import BACKBONE_FRAMES, LINK_LENGTH, jpl_serpentine
-from navstack.world import Box, Cylinder, Mesh, Obstacle, Sphere, World
+from navstack.world import Box, Cylinder, LinearMotion, Mesh, Obstacle, Sphere, World
 
 __all__ = [
     "CheckConfig",
@@ -32,6 +32,7 @@ __all__ = [
     "reference_path",
     "robot_start",
     "run_checks",
+    "settled",
     "slither_chains",
     "start_clearance",
     "structure_box",
@@ -240,10 +241,36 @@ def start_clearance(world: World, max_distance: float = 0.5) -> float:
         return float(scene.clearance(body.body_id, max_distance))
 
 
+def settled(obstacles: tuple[Obstacle, ...]) -> tuple[Obstacle, ...]:
+    """Every obstacle where its motion ends: a ``linear`` motion's obstacle translated by its displacement at
+    ``stop``, without the motion (a door that has slid away); the others as they are.
+
+    Raises:
+        ValueError: an obstacle whose motion never ends (``oscillate``, or ``linear`` without ``stop``),
+            naming it.
+    """
+    out = []
+    for i, o in enumerate(obstacles):
+        m = getattr(o, "motion", None)
+        if m is None:
+            out.append(o)
+            continue
+        if not isinstance(m, LinearMotion) or not math.isfinite(m.stop):
+            raise ValueError(f"check_world: obstacles[{i}] moves without end ({m.type} motion); the checks take "
+                             f"only motions that stop (linear with a stop)")
+        d = m.displacement(m.stop)
+        if isinstance(o, Cylinder):
+            out.append(replace(o, p0=o.p0 + d, p1=o.p1 + d, motion=None))
+        else:
+            out.append(replace(o, center=o.center + d, motion=None))
+    return tuple(out)
+
+
 def run_checks(world: World, via: FloatArray, structure: int, cfg: CheckConfig, robot: RobotStart,
                samples: Samples | None = None, pybullet_start: bool = True) -> CheckReport:
-    """Checks 1-6 of :mod:`navstack.generate` along the path through ``via`` (given ``samples`` reused)."""
-    obstacles = world.obstacles
+    """Checks 1-6 of :mod:`navstack.generate` along the path through ``via`` (given ``samples`` reused):
+    1-5 against the obstacles where their motions end (:func:`settled`), 6 (the start) at t = 0."""
+    obstacles = settled(world.obstacles)
     S = samples if samples is not None else path_samples(robot, via, cfg)
     hz = cfg.horizon
     problems: list[str] = []
@@ -336,8 +363,12 @@ def check_world(world: World, via: ArrayLike | None = None, structure: int | Non
     ``retract`` world's way back passes through the same configurations in reverse order (the tip
     retraces the path, every joint point stays on it), so the same checks cover it.
 
+    Moving obstacles are checked where their motions end (:func:`settled`: a door once it has slid away); the
+    start at t = 0.
+
     Raises:
-        ValueError: a mesh obstacle, or malformed ``via`` / ``structure`` / ``check_config``.
+        ValueError: a mesh obstacle, an obstacle whose motion never ends, or malformed ``via`` / ``structure``
+            / ``check_config``.
     """
     gen = world.extra.get("generator", {}) if isinstance(world.extra.get("generator"), dict) else {}
     cfg = config or _stored_config(gen.get("check_config", {}))
