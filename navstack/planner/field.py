@@ -59,8 +59,9 @@ RELAXED_GOAL_FRACTION = 0.85
 
 WAIT_ESCAPE_PERIODS = 4
 """Waiting boxed in, an escape (up to 15 searches back along the path) is tried again at most every this many
-``nav_period`` [s]; from the command, every ``nav_period`` (the map forgetting): in a static world boxed in, an
-escape each second cost up to 28 s of wall time per trial (a three-baffle world: 54 s against 40 s)."""
+``nav_period`` [s]; from the command, every ``nav_period`` (the map forgetting).  Measured on a static world that
+boxes the tip in (the adversarial zigzag duct, ``navstack run`` seed 0): 4.9 s of wall time without waiting, 14.2 s
+waiting with an escape each time the map forgot points, 7.6 s with this throttle."""
 
 __all__ = ["FieldPlanner", "FieldPlannerConfig"]
 
