@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -49,3 +51,34 @@ def test_the_sliding_door_shuts_the_window_at_the_start_and_is_clear_of_the_way_
     assert report.ok, report.problems
     assert world.time_limit >= door.motion.stop + 60.0
     assert world.goals[0].position.tolist() == pytest.approx(gen["reference_via"][-1])
+
+
+def _disc(centre: np.ndarray, normal: np.ndarray, radius: float, n: int = 72) -> np.ndarray:
+    """``n`` points on the circle of ``radius`` [m] about ``centre`` across the unit ``normal``."""
+    a = np.cross(normal, [0.0, 0.0, 1.0]) if abs(normal[2]) < 0.9 else np.cross(normal, [1.0, 0.0, 0.0])
+    a /= np.linalg.norm(a)
+    b = np.cross(normal, a)
+    t = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
+    return centre + radius * (np.cos(t)[:, None] * a + np.sin(t)[:, None] * b)
+
+
+@pytest.mark.parametrize("seed, difficulty", [(0, 0.0), (1, 0.5), (2, 1.0)])
+def test_the_shut_door_overlaps_the_window_and_the_open_one_stops_past_it(seed, difficulty):
+    """The door covers the window by OVERLAP (3 cm) round its edge when shut, and stops CLEAR (8 cm) past it:
+    a circle 2 cm beyond the window's half width (in the door's plane) lies inside the shut door; one 7 cm
+    beyond it clears the open door."""
+    world = generate_world("sliding-door", seed, difficulty)
+    gen = world.extra["generator"]
+    half, axis = gen["window_half_width"], np.array(gen["axis"])
+    door = world.obstacles[-1]
+    assert obstacle_distance((door,), _disc(door.center, axis, half + 0.02), 1.0).max() < 0.0
+    assert obstacle_distance(settled((door,)), _disc(door.center, axis, half + 0.07), 1.0).min() > 0.0
+
+
+def test_the_start_is_checked_with_the_obstacles_at_t0():
+    """A small sphere next to the tip that moves away in the first second: the world is refused at the start."""
+    world = generate_world("sliding-door", 0, 0.0)
+    blocker = Sphere(center=TIP - 0.05 * HEADING, radius=0.01,
+                     motion=LinearMotion(velocity=[0.0, 0.0, 1.0], start=0.0, stop=1.0))
+    report = check_world(dataclasses.replace(world, obstacles=(*world.obstacles, blocker)))
+    assert not report.ok and any("robot at q0" in p for p in report.problems), report.problems

@@ -318,6 +318,28 @@ def test_the_stall_reason_blames_the_arm_only_when_it_alone_blocks(arm_y, slot):
     assert planner.stall_reason == "goals[0] (of 1): why"
 
 
+def test_the_arm_check_starts_from_the_goal_the_command_heads_for():
+    """A goal behind the start already passed (command_goal 1): the check is for the goal ahead."""
+    planner = _planner_before_a_slotted_wall(arm_y=0.15)
+    behind = FieldPlanner((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), [(-0.3, 0.0, 0.0), (1.9, 0.0, 0.0)], [0.02, 0.02],
+                          arm=planner.arm)
+    behind.map = planner.map
+    behind.command_goal = 1
+    assert behind.arm_blocks_the_way()
+
+
+def test_the_arm_is_blamed_only_after_a_search_with_the_deeper_budget(monkeypatch):
+    import navstack.planner.search as search_module
+
+    planner = _planner_before_a_slotted_wall(arm_y=0.15)
+    seen = []
+    real = search_module.search
+    monkeypatch.setattr(search_module, "search",
+                        lambda *a, **k: seen.append((k.get("arm") is not None, a[6].max_expansions)) or real(*a, **k))
+    assert planner.arm_blocks_the_way()
+    assert sorted(seen) == [(False, CFG.search.max_expansions), (True, CFG.deep_budget)]
+
+
 # ---------------------------------------------------------------------------- interface and isolation
 BAD_NAME = re.compile(r"world|obstacle|scene|client|geometr|mesh|truss|bullet", re.IGNORECASE)
 BAD_TYPE = re.compile(r"\b(World|Obstacle|Scene|Cylinder|Box|Sphere|Mesh|BulletClient|RobotBody)\b")

@@ -14,7 +14,7 @@ import pytest
 from _clouds import box_surface
 
 import navstack.planner.field as field_module
-from navstack.planner.escape import EscapeConfig
+from navstack.planner.escape import WAIT_ESCAPE_PERIODS, EscapeConfig, Wait
 from navstack.planner.field import FieldPlanner, FieldPlannerConfig
 from navstack.planner.map import MapConfig
 
@@ -91,3 +91,101 @@ def test_once_the_map_forgets_the_face_it_was_stopped_by_it_goes_on(map_config):
 def test_a_bad_patience_is_refused_naming_the_field(value):
     with pytest.raises(ValueError, match="EscapeConfig.patience"):
         EscapeConfig(patience=value)
+
+
+def test_the_wait_searches_once_the_map_forgot_and_escapes_every_fourth_period():
+    """Closed cases of :meth:`Wait.next_search` (nav_period 1 s, the last plan at ``planned_at``)."""
+    assert WAIT_ESCAPE_PERIODS == 4
+    w = Wait(since=0.0, forgotten=5, escaped=0.0)
+    assert w.next_search(0.5, True, 6, 0.0, 1.0) is None  # within a period of the last plan
+    assert w.next_search(1.0, False, 6, 0.0, 1.0) is None  # the map does not forget
+    assert w.next_search(1.0, True, 5, 0.0, 1.0) is None  # nothing forgotten since
+    assert w.forgotten == 5
+    assert w.next_search(1.0, True, 6, 0.0, 1.0) == "here" and w.forgotten == 6 and w.escaped == 0.0
+    assert w.next_search(2.0, True, 6, 1.0, 1.0) is None
+    assert w.next_search(3.999, True, 7, 1.0, 1.0) == "here"
+    assert w.next_search(4.0, True, 8, 3.0, 1.0) == "escape" and w.escaped == 4.0 and w.forgotten == 8
+    assert w.next_search(5.0, True, 9, 4.0, 1.0) == "here"
+
+
+def _rays_through(points: np.ndarray):
+    """One reading of rays along +x, each straight through one of ``points`` (from 0.15 m before it, free to
+    0.4 m): a clean pass through each."""
+    n = len(points)
+    return (points - 0.15 * X, np.tile(X, (n, 1)), np.zeros(n), np.full(n, 0.4), np.zeros(n, bool), np.ones(n, bool))
+
+
+def _front_face() -> np.ndarray:
+    face = box_surface([0.0, 0.0, 0.0], 0.2)
+    return face[np.isclose(face[:, 0], 0.2)]
+
+
+def _step_each(planner: FieldPlanner, done, t_max: float, before) -> float:
+    while planner.time < t_max:
+        before(planner)
+        planner.step(DT, planner.path.head, X, None, 0)
+        if done(planner):
+            return planner.time
+    raise AssertionError(f"not done in {t_max} s (mode {planner.mode})")
+
+
+def test_while_the_map_forgets_elsewhere_it_searches_once_a_second_and_escapes_every_fourth(monkeypatch):
+    """Points far off the way are forgotten a few at every step (the map forgetting, the box still shut):
+    searches at most once per ``nav_period``, escapes (back along the path) every 4 s of them, and the patience
+    counted from the wait's start, not from each escape's."""
+    planner = _boxed_in(FieldPlannerConfig(escape=EscapeConfig(patience=9.0)))
+    y, z = np.meshgrid(np.arange(-0.3, 0.3, 0.01), np.arange(-0.3, 0.3, 0.01))
+    far = np.column_stack([np.full(y.size, 1.3), y.ravel(), z.ravel()])  # beyond the goal, off the way
+    planner.map.add_points(far)
+    t_wait = _step_until(planner, lambda p: p.mode == "wait")
+    searched, escaped = [], []
+    real_search, real_branch = field_module.search, field_module.find_branch_point
+    monkeypatch.setattr(field_module, "search", lambda *a, **k: searched.append(planner.time) or real_search(*a, **k))
+    monkeypatch.setattr(field_module, "find_branch_point",
+                        lambda *a, **k: escaped.append(planner.time) or real_branch(*a, **k))
+    batches = iter(range(0, len(far), 5))
+
+    def forget_some(p: FieldPlanner) -> None:
+        i = next(batches)
+        for _ in range(2):
+            p.map.update(*_rays_through(far[i:i + 5]))
+
+    t_stall = _step_each(planner, lambda p: p.stalled, t_wait + 20.0, forget_some)
+    assert t_stall - t_wait == pytest.approx(9.0, abs=1.5 * DT)
+    times = sorted({round(t - t_wait, 3) for t in searched if t < t_stall - 1e-9})
+    assert len(times) >= 5 and all(b - a >= 1.0 - 1e-6 for a, b in zip(times, times[1:], strict=False))
+    esc = sorted({round(t - t_wait, 3) for t in escaped})
+    assert len(esc) == 2 and 4.0 <= esc[0] < 4.5 and esc[1] - esc[0] >= 4.0
+
+
+def test_a_face_forgotten_when_an_escape_is_due_lets_it_go_on():
+    planner = _boxed_in(FieldPlannerConfig(escape=EscapeConfig(patience=30.0)))
+    t_wait = _step_until(planner, lambda p: p.mode == "wait")
+    _step_until(planner, lambda p: p.time - t_wait > 4.5, t_max=t_wait + 5.0)
+    for _ in range(2):
+        planner.map.update(*_rays_through(_front_face()))
+    _step_until(planner, lambda p: p.mode != "wait", t_max=planner.time + 1.5)
+    assert planner.mode in ("plan", "explore") and not planner.stalled
+
+
+def test_what_goes_as_forgetting_begins_counts_as_forgotten():
+    """Passes through the front face before the wait (motion never sensed: latent evidence 0, the points kept)
+    are counted when the wait turns forgetting on: the face goes at once and the planner goes on."""
+    cfg = FieldPlannerConfig(map=MapConfig(motion_contradictions=10**6), escape=EscapeConfig(patience=30.0))
+    planner = _boxed_in(cfg)
+    for _ in range(2):
+        planner.map.update(*_rays_through(_front_face()))
+    n = planner.map.n_points
+    assert not planner.map.forgetting
+    _step_until(planner, lambda p: p.mode == "wait")
+    assert planner.map.n_points < n
+    _step_until(planner, lambda p: p.mode != "wait", t_max=planner.time + 2.0)
+    assert not planner.stalled
+
+
+def test_begin_forgetting_once_forgetting_changes_nothing():
+    smap = _boxed_in(FieldPlannerConfig()).map
+    smap.begin_forgetting()
+    at = smap.motion_sensed_at
+    smap.update(*_rays_through(_front_face()[:3]))
+    assert smap.begin_forgetting() == 0 and smap.motion_sensed_at == at

@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from navstack.estimate import RangeEstimate
 from navstack.path import PathMemory
-from navstack.planner.escape import EscapeConfig, find_branch_point
+from navstack.planner.escape import EscapeConfig, Wait, find_branch_point
 from navstack.planner.map import MapConfig, SensedMap
 from navstack.planner.potential import NavigationFunction, Repulsion, navigation_function
 from navstack.planner.proximity import sets_closer_than
@@ -43,6 +43,7 @@ from navstack.planner.search import (
     Plan,
     SearchConfig,
     navigation_region,
+    only_the_arm_blocks,
     search,
     still_clear,
 )
@@ -56,12 +57,6 @@ RELAXED_GOAL_FRACTION = 0.85
 """The goal ball (fraction of each tolerance) of a full search's second try when the first, at the search's own
 ``goal_fraction``, reaches no plan: a goal at the edge of the turning limit (15.6 mm from any path of radius
 0.25 m, tolerance 20 mm) is then passed within its tolerance instead of stalling the planner."""
-
-WAIT_ESCAPE_PERIODS = 4
-"""Waiting boxed in, an escape (up to 15 searches back along the path) is tried again at most every this many
-``nav_period`` [s]; from the command, every ``nav_period`` (the map forgetting).  Measured on a static world that
-boxes the tip in (the adversarial zigzag duct, ``navstack run`` seed 0): 4.9 s of wall time without waiting, 14.2 s
-waiting with an escape each time the map forgot points, 7.6 s with this throttle."""
 
 __all__ = ["FieldPlanner", "FieldPlannerConfig"]
 
@@ -124,6 +119,23 @@ def _vec3(v: ArrayLike, name: str) -> NDArray[np.float64]:
     return a.copy()
 
 
+def _fuse(smap: SensedMap, reading: RangeEstimate | None, ray_start: float) -> None:
+    """sense -> map: one filtered reading's rays into ``smap``, free from ``ray_start`` [m] (measured rays hit;
+    a ray without a measurement is free up to the maximum range where the filter is not coasting)."""
+    if reading is None:
+        return
+    if not isinstance(reading, RangeEstimate):
+        raise TypeError(f"reading must be a RangeEstimate (a filtered tip-sensor reading) or None, "
+                        f"got {type(reading).__name__}")
+    measured = np.asarray(reading.measured, dtype=np.bool_)
+    valid = np.asarray(getattr(reading, "valid", np.ones_like(measured)), dtype=np.bool_)
+    tracking = np.asarray(reading.tracking, dtype=np.bool_)
+    max_range = float(getattr(reading, "max_range", 0.4))
+    ranges = np.where(measured, reading.ranges, max_range)
+    informative = measured | (valid & ~tracking)
+    smap.update(reading.origins, reading.directions, np.full(len(ranges), ray_start), ranges, measured, informative)
+
+
 class FieldPlanner:
     """Sensor-based tip planner (see the module docstring).
 
@@ -178,9 +190,7 @@ class FieldPlanner:
         self.retreats = 0
         self._command_goal_s = 0.0
         self._last_branch: float | None = None
-        self._wait_since: float | None = None  # when the planner, boxed in, began to wait [s]
-        self._wait_forgotten = -1  # the map's count of forgotten points at the last search while waiting
-        self._wait_escaped = -math.inf  # when the last escape while waiting was tried [s]
+        self._wait: Wait | None = None  # boxed in, waiting for the map to change
 
     # ---- planning
     def _navigation(self, p: NDArray[np.float64], k: int, fresh: bool) -> NavigationFunction | None:
@@ -293,25 +303,16 @@ class FieldPlanner:
         return still_clear(self.map, f.plan, f.s, history, cfg.search, cfg.repulsion, self.arm)
 
     def arm_blocks_the_way(self) -> bool:
-        """Whether only the arm blocks the way on from the commanded state: the search through every remaining
-        goal reaches them for the serpentine alone (the flange still checked) but not with the arm's capsules.
-        False without an arm."""
+        """Whether only the arm blocks the way on from the commanded state (:func:`~navstack.planner.search.
+        only_the_arm_blocks`, the arm's search with ``deep_budget``).  False without an arm."""
         if self.arm is None:
             return False
         p, h = self.follower.state()
         history = self._history(self.path.end_arc_length, 7.5 * self.config.search.link_length)
         k = self._passed(p, self.command_goal)
-
-        def reached(arm: ArmShape | None, config: SearchConfig) -> bool:
-            return search(self.map, p, h, self.goals, self.tolerances, k, config, self.config.repulsion,
-                          history=history, nav=self._navigation(p, k, False), arm=arm).status == REACHED
-
-        return reached(None, self.config.search) and not reached(self.arm, self._arm_search())
-
-    def _arm_search(self) -> SearchConfig:
-        """The search that must fail before the arm is blamed: the deeper search's budget."""
-        scfg = self.config.search
-        return replace(scfg, max_expansions=max(scfg.max_expansions, self.config.deep_budget))
+        return only_the_arm_blocks(self.map, p, h, self.goals, self.tolerances, k, self.config.search,
+                                   self.config.repulsion, history, self._navigation(p, k, False), self.arm,
+                                   self.config.deep_budget)
 
     def _stall(self, why: str) -> None:
         """Give up: ``why`` becomes :attr:`stall_reason` (and an INFO line of this module's logger), with a
@@ -319,8 +320,9 @@ class FieldPlanner:
         self.stalled = True
         self.mode = "stalled"
         if self.arm_blocks_the_way():
-            why += ("; the serpentine alone has a way on, but a search of "
-                    f"{self._arm_search().max_expansions} expansions found none that keeps the arm, carried after "
+            budget = max(self.config.search.max_expansions, self.config.deep_budget)
+            why += (f"; the serpentine alone has a way on, but a search of {budget} expansions found none that "
+                    "keeps the arm, carried after "
                     f"it in its start posture, SearchConfig.arm_margin = {self.config.search.arm_margin:g} m from "
                     "every sensed surface")
         self.stall_reason = f"goals[{self.command_goal}] (of {len(self.goals)}): {why}"
@@ -344,8 +346,7 @@ class FieldPlanner:
             elif self.config.escape.patience > 0:
                 # boxed in: hold still while the map may still change; what boxes the tip in may have moved (or
                 # still move) without the map having seen it often enough to sense it: the map forgets from now
-                self._wait_since = self._wait_escaped = self.time
-                self._wait_forgotten = self.map.forgotten  # (what goes as forgetting begins counts: search again)
+                self._wait = Wait(self.time, self.map.forgotten, self.time)  # (what goes as forgetting begins counts)
                 if self.map.config.detect_motion:
                     self.map.begin_forgetting()
                 self.mode = "wait"
@@ -365,33 +366,28 @@ class FieldPlanner:
                 f"along the path")
 
     def _step_wait(self) -> TipCommand:
-        """Boxed in: hold the command.  While the map forgets, each time it has forgotten points (at most every
-        ``nav_period``) search again from the command, and every ``WAIT_ESCAPE_PERIODS`` of those back along the
-        path too (an escape: up to 15 searches); give up after ``EscapeConfig.patience`` still boxed in.  A map
-        that forgets nothing costs no search."""
+        """Boxed in: hold the command; search again as :meth:`Wait.next_search` says (from the command, or an
+        escape back along the path too); give up after ``EscapeConfig.patience`` still boxed in."""
         cfg = self.config
-        since = self._wait_since
-        assert since is not None
-        if self.map.forgetting and self.map.forgotten != self._wait_forgotten \
-                and self.time - self._planned_at >= cfg.nav_period:
-            self._wait_forgotten = self.map.forgotten
-            if self.time - self._wait_escaped >= WAIT_ESCAPE_PERIODS * cfg.nav_period:
-                self._wait_escaped = self.time
-                self._wait_since = None
-                self._replan()  # a way on, an escape back along the path, or boxed in again (waiting on)
-                if self._wait_since is None:
-                    return self.step_hold(0.0)
-                self._wait_since = since
-            else:
-                p, h = self.follower.state()
-                plan = self._plan_from(p, h, self.command_goal)
-                self._planned_at, self._planned_version = self.time, self.map.version
-                if plan.status != NO_PATH:  # a way on, or one to explore (the budget spent), as an escape's
-                    self._wait_since = None
-                    self.follower = PlanFollower(plan, cfg.steering, 0.0)
-                    self.mode = "plan" if plan.status == REACHED else "explore"
-                    return self.step_hold(0.0)
-        if self.time - since >= cfg.escape.patience:
+        wait = self._wait
+        assert wait is not None
+        what = wait.next_search(self.time, self.map.forgetting, self.map.forgotten, self._planned_at, cfg.nav_period)
+        if what == "escape":
+            self._wait = None
+            self._replan()  # a way on, an escape back along the path, or boxed in again (waiting on)
+            if self._wait is None:
+                return self.step_hold(0.0)
+            self._wait.since = wait.since
+        elif what == "here":
+            p, h = self.follower.state()
+            plan = self._plan_from(p, h, self.command_goal)
+            self._planned_at, self._planned_version = self.time, self.map.version
+            if plan.status != NO_PATH:  # a way on, or one to explore (the budget spent), as an escape's
+                self._wait = None
+                self.follower = PlanFollower(plan, cfg.steering, 0.0)
+                self.mode = "plan" if plan.status == REACHED else "explore"
+                return self.step_hold(0.0)
+        if self.time - wait.since >= cfg.escape.patience:
             self._stall(f"{self._boxed_in()}; no way either after waiting {cfg.escape.patience:g} s "
                         f"(EscapeConfig.patience) for the map to change")
         return self.step_hold(0.0)
@@ -409,40 +405,24 @@ class FieldPlanner:
                 return True
         return self.map.version != self._planned_version and self.time - self._planned_at >= cfg.replan_period
 
-    # ---- sensing
-    def _sense(self, reading: RangeEstimate | None) -> None:
-        if reading is None:
-            return
-        if not isinstance(reading, RangeEstimate):
-            raise TypeError(f"reading must be a RangeEstimate (a filtered tip-sensor reading) or None, "
-                            f"got {type(reading).__name__}")
-        measured = np.asarray(reading.measured, dtype=np.bool_)
-        valid = np.asarray(getattr(reading, "valid", np.ones_like(measured)), dtype=np.bool_)
-        tracking = np.asarray(reading.tracking, dtype=np.bool_)
-        max_range = float(getattr(reading, "max_range", 0.4))
-        ranges = np.where(measured, reading.ranges, max_range)
-        informative = measured | (valid & ~tracking)
-        starts = np.full(len(ranges), self.config.ray_start)
-        self.map.update(reading.origins, reading.directions, starts, ranges, measured, informative)
-
     # ---- step
     def step(self, dt: float, tip: ArrayLike, direction: ArrayLike, reading, goal_index: int) -> TipCommand:
         """Advance by ``dt`` [s]; ``tip`` the measured tip [m], ``goal_index`` the goals reached so far."""
         tip = _vec3(tip, "tip")
         _vec3(direction, "direction")  # checked, not used: the planner steers its own commanded heading
         self.time += dt
-        self._sense(reading)
+        _fuse(self.map, reading, self.config.ray_start)
         self.map.mark_free(tip, self.config.repulsion.body_radius)
         changed = self._sync_goals(goal_index)
         if self.stalled:
             return TipCommand(self.path.head, np.zeros(3), True, "stalled")
         if self.retreat is not None:
             return self._step_retreat(dt)
-        if self._wait_since is not None:
+        if self._wait is not None:
             return self._step_wait()
         if changed or self._needs_replan():
             self._replan()
-            if self.retreat is not None or self.stalled or self._wait_since is not None:
+            if self.retreat is not None or self.stalled or self._wait is not None:
                 return self.step_hold(dt)
         x_d, _ = self.follower.state()
         body = self.config.repulsion.body_radius

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import heapq
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numba
 import numpy as np
@@ -49,7 +49,8 @@ from navstack.planner.potential import (
 )
 from navstack.planner.proximity import distance_below, distances_below, point_index, samples_clear
 
-__all__ = ["NO_PATH", "PARTIAL", "REACHED", "ArmShape", "Plan", "SearchConfig", "search", "still_clear"]
+__all__ = ["NO_PATH", "PARTIAL", "REACHED", "ArmShape", "Plan", "SearchConfig", "only_the_arm_blocks", "search",
+           "still_clear"]
 
 REACHED, PARTIAL, NO_PATH = 0, 1, 2
 
@@ -862,6 +863,21 @@ def _path_clear(pts, hist, every, link, r_block, r_arm, arm_pts, flange, arm_rea
         elif not _flange_clear(chain_pts, r_arm, occ, start, S, origin, bucket, bdims):
             return False
     return True
+
+
+def only_the_arm_blocks(smap: SensedMap, p0: ArrayLike, h0: ArrayLike, goals: ArrayLike, tolerances: ArrayLike, k0: int,
+                        config: SearchConfig, repulsion: Repulsion, history: ArrayLike, nav: NavigationFunction | None,
+                        arm: ArmShape, arm_budget: int) -> bool:
+    """Whether the search from ``(p0, h0)`` reaches every goal from ``k0`` on for the serpentine alone (the flange
+    still checked) but not, within ``max(config.max_expansions, arm_budget)`` expansions, with the arm's capsules:
+    the arm alone blocks the way."""
+
+    def reached(with_arm: ArmShape | None, cfg: SearchConfig) -> bool:
+        return search(smap, p0, h0, goals, tolerances, k0, cfg, repulsion, history=history, nav=nav,
+                      arm=with_arm).status == REACHED
+
+    deep = replace(config, max_expansions=max(config.max_expansions, arm_budget))
+    return reached(None, config) and not reached(arm, deep)
 
 
 def still_clear(smap: SensedMap, plan: Plan, s: float, history: ArrayLike, config: SearchConfig,
