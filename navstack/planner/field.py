@@ -320,10 +320,10 @@ class FieldPlanner:
         self.stalled = True
         self.mode = "stalled"
         if self.arm_blocks_the_way():
-            budget = max(self.config.search.max_expansions, self.config.deep_budget)
-            why += (f"; the serpentine alone has a way on, but a search of {budget} expansions found none that "
-                    "keeps the arm, carried after "
-                    f"it in its start posture, SearchConfig.arm_margin = {self.config.search.arm_margin:g} m from "
+            scfg = self.config.search
+            why += (f"; the serpentine alone has a way on, but a search of "
+                    f"{max(scfg.max_expansions, self.config.deep_budget)} expansions found none that keeps the arm, "
+                    f"carried after it in its start posture, SearchConfig.arm_margin = {scfg.arm_margin:g} m from "
                     "every sensed surface")
         self.stall_reason = f"goals[{self.command_goal}] (of {len(self.goals)}): {why}"
         _log.info("stalled at %s", self.stall_reason)

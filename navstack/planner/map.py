@@ -685,21 +685,17 @@ class SensedMap:
         o, d, st, ends, pts, n_hit = _reading_rays(*rays, cfg.hit_backoff, self._depths)
         self.readings += 1
         passing = self.forgetting or cfg.detect_motion
+        radius, slope = self._clean_pass()
         removed, self.contradicted = _carve(
             o, d, st, ends, self.free, self.origin, cfg.free_cell, self.free_dims, self._P, self._alive, self._evidence,
             self._latent, self._mark, self._rays, self.head, self._visit, self._next, self.origin, cfg.bucket,
-            self.bucket_dims,
-            self._clear_radius() if passing else 0.0, self._clear_slope(), cfg.clear_backoff, self.forgetting,
-            cfg.max_evidence, self._seen,
-            self.readings)
+            self.bucket_dims, radius if passing else 0.0, slope, cfg.clear_backoff, self.forgetting, cfg.max_evidence,
+            self._seen, self.readings)
         self._rays += o.shape[0]
         self._recent[self.readings % cfg.motion_window] = self.contradicted
         if not self.forgetting and self._recent.sum() >= cfg.motion_contradictions:
             removed += self._begin_forgetting()
-        if removed:
-            self.forgotten += removed
-            self.version += 1
-            self.revision += 1
+        self._forgot(removed)
         if n_hit:  # the hits, then their shadows depth by depth, in one pass
             self._merge(pts, n_hit)
         if _purge_shadows(self._alive, self._shadow, self._n, self._P, self.free, self.origin, cfg.free_cell,
@@ -707,14 +703,20 @@ class SensedMap:
             self.version += 1
             self.revision += 1
 
-    def _clear_radius(self) -> float:
-        """The clean-pass radius: ``sensed_clear_radius`` once motion has been sensed, else ``clear_radius``."""
+    def _clean_pass(self) -> tuple[float, float]:
+        """The clean-pass radius [m] at a ray's origin and its growth along the ray [m/m]: ``sensed_clear_radius``
+        and ``sensed_clear_slope`` once motion has been sensed, else ``clear_radius`` and 0."""
         cfg = self.config
-        return cfg.sensed_clear_radius if self.motion_sensed_at is not None else cfg.clear_radius
+        if self.motion_sensed_at is not None:
+            return cfg.sensed_clear_radius, cfg.sensed_clear_slope
+        return cfg.clear_radius, 0.0
 
-    def _clear_slope(self) -> float:
-        """How fast the clean-pass radius grows along a ray: ``sensed_clear_slope`` once motion has been sensed."""
-        return self.config.sensed_clear_slope if self.motion_sensed_at is not None else 0.0
+    def _forgot(self, removed: int) -> None:
+        """Count ``removed`` forgotten points (and a new version of the map if any)."""
+        if removed:
+            self.forgotten += removed
+            self.version += 1
+            self.revision += 1
 
     def begin_forgetting(self) -> int:
         """Forget from now on, as if motion had been sensed (a planner boxed in by what it has seen, waiting: what
@@ -723,10 +725,7 @@ class SensedMap:
         if self.forgetting:
             return 0
         removed = self._begin_forgetting()
-        if removed:
-            self.forgotten += removed
-            self.version += 1
-            self.revision += 1
+        self._forgot(removed)
         return removed
 
     def _begin_forgetting(self) -> int:
