@@ -74,9 +74,16 @@ class SearchConfig:
         goal_fraction: a goal is passed when a sample is within this fraction of its tolerance.
         max_expansions: expansion budget per search.
         max_length: no path longer than this is searched [m].
-        start_relax: within this arc length of the start, the tip may be as close as
-            ``body_radius + start_margin`` to a surface (it may already be there) [m].
+        start_relax: within this arc length of the start (and the last link within ``start_relax +
+            link_length``), the body may be closer to sensed surfaces than ``Repulsion.r_block``, as it may
+            already be: no closer than ``start_slack`` nearer than the start is (the tip and its last link), and
+            never closer than ``body_radius + start_margin`` [m].  A start that keeps ``r_block + start_slack``
+            gets no relaxation: a planner that replans every few centimetres always follows the first
+            centimetres of a plan, so a relaxation granted to every start would be its clearance for good
+            (rotated_duct.json, a review world: the last link cut a duct's mouth corner at 28 mm from sensed
+            points, 3 mm of margin, and touched it).
         start_margin: see ``start_relax`` [m].
+        start_slack: see ``start_relax`` [m].
         link_length: the serpentine's links are straight chords of this length behind the tip [m].
         arm_clearance: the flange (six links behind the tip) and the point one link behind it, where the
             arm begins, keep this distance from sensed surfaces: the arm (radius 0.06 m) must not be
@@ -106,6 +113,7 @@ class SearchConfig:
     max_length: float = 3.0
     start_relax: float = 0.06
     start_margin: float = 0.003
+    start_slack: float = 0.002
     link_length: float = 0.2
     arm_clearance: float = 0.08
     arm_margin: float = 0.02
@@ -119,7 +127,7 @@ class SearchConfig:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ValueError(f"SearchConfig.{name} must be a positive number, got {v!r}")
-        for name in ("w_turn", "start_relax", "start_margin"):
+        for name in ("w_turn", "start_relax", "start_margin", "start_slack"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise ValueError(f"SearchConfig.{name} must be a number >= 0, got {v!r}")
@@ -620,7 +628,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
     """Hybrid A* (see the module docstring).  Node arrays are preallocated by the caller.
 
     ``cfg`` = [step, samples, cell, heading_bin, epsilon, w_turn, max_expansions, max_length,
-    start_relax, start_margin, kappa_max, body_radius, link_length, arm_clearance, length_factor,
+    start_relax, r_start, kappa_max, body_radius, link_length, arm_clearance, length_factor,
     length_slack, arm_reach].  ``arm_pts`` (k, 3): the arm's axis at the start, ``flange`` (3,) the
     flange there; a state is expanded only if the arm, carried along with the flange (the sixth chord
     point behind it), keeps ``arm_reach`` from every surface point (no ``arm_pts``: the flange and the
@@ -638,7 +646,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
     max_exp = int(cfg[6])
     max_len = cfg[7]
     relax = cfg[8]
-    r_start = cfg[11] + cfg[9]
+    r_start = cfg[9]
     kappa_max = cfg[10]
     link = cfg[12]
     use_arm = arm_pts.shape[0] > 0
@@ -932,6 +940,36 @@ def primitives(config: SearchConfig) -> tuple[NDArray[np.float64], NDArray[np.fl
     return np.array(kap), np.array(c), np.array(s)
 
 
+@numba.njit(cache=True)
+def _start_clearance(p0, hist, L, r, occ, start, S, origin, bucket, bdims):  # pragma: no cover - jitted
+    """The start's clearance up to ``r`` [m]: the smaller of the tip's ``p0`` and its last link's (the chord one
+    ``L`` back along ``hist``, oldest first and ending at ``p0``, at :data:`_CHORD_FRACTIONS`; none if the
+    history is shorter) distances to the nearest surface point."""
+    n = hist.shape[0]
+    line = np.empty((n, 3))
+    for i in range(n):
+        line[i] = hist[n - 1 - i]
+    line[0] = p0
+    d = distance_below(p0[0], p0[1], p0[2], r, occ, start, S, origin, bucket, bdims)
+    pts = np.empty((1, 3))
+    if _chain(line, n, L, 1, pts) < 1:
+        return d
+    for f in _CHORD_FRACTIONS:
+        d = min(d, distance_below(pts[0, 0] + f * (p0[0] - pts[0, 0]), pts[0, 1] + f * (p0[1] - pts[0, 1]),
+                                  pts[0, 2] + f * (p0[2] - pts[0, 2]), r, occ, start, S, origin, bucket, bdims))
+    return d
+
+
+def start_radius(smap: SensedMap, p0: NDArray[np.float64], hist: NDArray[np.float64], config: SearchConfig,
+                 repulsion: Repulsion) -> float:
+    """The clearance [m] the path keeps from sensed surfaces near its start (``SearchConfig.start_relax``):
+    ``Repulsion.r_block`` if the start's tip and last link keep ``r_block + start_slack``, else their clearance
+    less ``start_slack``, but not below ``body_radius + start_margin``."""
+    r_block = repulsion.r_block
+    near = _start_clearance(p0, hist, config.link_length, r_block + config.start_slack, *point_index(smap))
+    return min(r_block, max(repulsion.body_radius + config.start_margin, near - config.start_slack))
+
+
 def search(smap: SensedMap, start: ArrayLike, heading: ArrayLike, goals: ArrayLike, tolerances: ArrayLike,
            goal_index: int, config: SearchConfig, repulsion: Repulsion, history: ArrayLike | None = None,
            nav: NavigationFunction | None = None, sample: float = 0.005, arm: ArmShape | None = None) -> Plan:
@@ -970,7 +1008,8 @@ def search(smap: SensedMap, start: ArrayLike, heading: ArrayLike, goals: ArrayLi
         buf = _BUFFERS[cap] = _Buffers(cap)
     arm_pts, flange, arm_reach = _arm_arrays(arm, config)
     cfg = np.array([config.step, config.samples, config.cell, config.heading_bin, config.epsilon, config.w_turn,
-                    config.max_expansions, config.max_length, config.start_relax, config.start_margin,
+                    config.max_expansions, config.max_length, config.start_relax,
+                    start_radius(smap, p0, hist, config, repulsion),
                     1.0 / config.min_turn_radius, repulsion.body_radius, config.link_length,
                     min(config.arm_clearance, smap.config.bucket), config.length_factor, config.length_slack,
                     arm_reach])
