@@ -18,6 +18,7 @@ from scipy.spatial.transform import Rotation
 
 from navstack.planner.map import SensedMap
 from navstack.planner.potential import Repulsion
+import navstack.planner.search as search_mod
 from navstack.planner.search import NO_PATH, PARTIAL, REACHED, Plan, SearchConfig, search, turn_then_straight
 
 CFG = SearchConfig()
@@ -474,9 +475,9 @@ def _ring(x: float, radius: float = 0.03, n: int = 12) -> np.ndarray:
 
 
 def test_the_start_relaxation_lets_the_tip_leave_a_tight_spot():
-    """A ring of points 3 cm around the axis 2 cm ahead: closer than r_block, but no closer than
-    body_radius + start_margin, and passed within the first 6 cm of arc: the straight plan is allowed."""
-    smap = _map(_ring(0.02))
+    """A ring of points 3 cm around the tip: closer than r_block, but no closer than body_radius +
+    start_margin.  The straight plan out is allowed, closer than r_block only within the first 6 cm of arc."""
+    smap = _map(_ring(0.0))
     plan = _plan(smap, [0.6, 0.0, 0.0])
     assert plan.status == REACHED
     d = cKDTree(smap.points).query(plan.points)[0]
@@ -484,10 +485,45 @@ def test_the_start_relaxation_lets_the_tip_leave_a_tight_spot():
     assert np.all(d[plan.arc >= CFG.start_relax] >= RB - SAG)  # ... only near the start
 
 
+def test_a_clear_start_gets_no_relaxation():
+    """The same ring 2 cm ahead of a start 36 mm from it (under r_block + start_slack): the relaxation goes only
+    to the start's clearance less start_slack (34 mm), and the straight way passes the ring at 30 mm.  The turn
+    radius cannot swerve around it within 2 cm: no way on.  (Every start was relaxed to 28 mm before, so a
+    planner replanning every few centimetres kept 28 mm for good: rotated_duct.json's contact.)"""
+    smap = _map(_ring(0.02))
+    assert search_mod.start_radius(smap, np.zeros(3), np.array([[-0.5, 0, 0], [0, 0, 0.0]]), CFG, REP) == \
+        pytest.approx(math.hypot(0.02, 0.03) - CFG.start_slack)
+    assert _plan(smap, [0.6, 0.0, 0.0]).status == NO_PATH
+    assert _plan(smap, [0.6, 0.0, 0.0], config=SearchConfig(start_slack=0.02)).status == REACHED  # 16 mm: 28 mm
+
+
+@pytest.mark.parametrize("d", [0.020, 0.026, 0.029, 0.031, 0.036, 0.037, 0.045])
+def test_start_radius_is_the_start_clearance_less_the_slack(d):
+    """One point beside the tip at d: r_block if d >= r_block + start_slack, else d - start_slack, never below
+    body_radius + start_margin."""
+    smap = _map(np.array([[0.0, d, 0.0]]))
+    hist = np.array([[-0.5, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    want = min(RB, max(REP.body_radius + CFG.start_margin, d - CFG.start_slack))
+    assert search_mod.start_radius(smap, np.zeros(3), hist, CFG, REP) == pytest.approx(want, abs=1e-12)
+
+
+def test_start_radius_counts_the_last_link():
+    """A point 31 mm beside the middle of the last link (10 cm from the tip): the link's clearance, not the
+    tip's, sets the radius; the chord follows the history (a bent one puts the link elsewhere)."""
+    smap = _map(np.array([[-0.1, 0.031, 0.0]]))
+    straight = np.array([[-0.5, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    assert search_mod.start_radius(smap, np.zeros(3), straight, CFG, REP) == pytest.approx(0.031 - CFG.start_slack)
+    bent = np.array([[-0.5, -0.5, 0.0], [0.0, 0.0, 0.0]])  # the link runs back at 45 degrees, away from the point
+    assert search_mod.start_radius(smap, np.zeros(3), bent, CFG, REP) == pytest.approx(RB)
+    assert search_mod.start_radius(smap, np.zeros(3), np.array([[-0.05, 0, 0], [0, 0, 0.0]]), CFG, REP) == \
+        pytest.approx(RB)  # a history shorter than a link: the tip alone
+
+
 def test_the_start_relaxation_is_measured_in_arc_length():
-    smap = _map(_ring(0.035))
-    plan = _plan(smap, [0.6, 0.0, 0.0])
-    assert plan.status == REACHED
+    """A tip in a ring (30 mm, relaxed to 28 mm): a second ring 3.5 cm ahead, within start_relax, is passed at
+    30 mm too; at 7.5 cm, beyond it, it blocks the way."""
+    assert _plan(_map(np.vstack([_ring(0.0), _ring(0.035)])), [0.6, 0.0, 0.0]).status == REACHED
+    assert _plan(_map(np.vstack([_ring(0.0), _ring(0.075)])), [0.6, 0.0, 0.0]).status != REACHED
 
 
 def test_max_length_in_seen_free_space():

@@ -81,6 +81,11 @@ class FieldPlannerConfig:
         path_spacing: vertex spacing of the record of the commanded path: the controller's [m].
         nav_period: the navigation function is recomputed at least this often while the map
             changes [s] (and whenever the next goal changes, or a search fails with the old one).
+        tight_margin: when a full replan from the command finds no plan that keeps ``Repulsion.margin`` from
+            sensed surfaces, one more search keeps this margin instead [m] (a passage narrower than twice
+            ``body_radius + margin``: a 7 cm slot for the 5 cm body); the plan found is followed while it
+            keeps this margin, and replaced by one that keeps ``Repulsion.margin`` when a replan finds one.
+            None, or not below ``Repulsion.margin``: no such search (the planner backs out or stalls instead).
     """
 
     map: MapConfig = field(default_factory=MapConfig)
@@ -97,12 +102,16 @@ class FieldPlannerConfig:
     improve_budget: int = 1500
     deep_budget: int = 20000
     deep_after_retreats: int = 2
+    tight_margin: float | None = 0.003
 
     def __post_init__(self) -> None:
         for name in ("replan_period", "horizon", "ray_start", "urgent_margin", "nav_period"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
                 raise ValueError(f"FieldPlannerConfig.{name} must be a positive number, got {v!r}")
+        t = self.tight_margin
+        if t is not None and (isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t) or t < 0):
+            raise ValueError(f"FieldPlannerConfig.tight_margin must be None or a finite number >= 0, got {t!r}")
         for name, lo in (("improve_budget", 1), ("deep_budget", 0), ("deep_after_retreats", 0)):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < lo:
@@ -187,6 +196,7 @@ class FieldPlanner:
         self._planned_at = 0.0
         self._planned_version = -1
         self.replans = 0
+        self.tight_plans = 0  # plans found only with FieldPlannerConfig.tight_margin
         self.retreats = 0
         self._command_goal_s = 0.0
         self._last_branch: float | None = None
@@ -219,8 +229,8 @@ class FieldPlanner:
         end = self.path.end_arc_length if at is None else at
         history = self._history(end, 7.5 * cfg.search.link_length)
 
-        def attempt(config: SearchConfig, fresh: bool = False) -> Plan:
-            return search(self.map, p, h, self.goals, self.tolerances, k, config, cfg.repulsion, history=history,
+        def attempt(config: SearchConfig, fresh: bool = False, repulsion: Repulsion = cfg.repulsion) -> Plan:
+            return search(self.map, p, h, self.goals, self.tolerances, k, config, repulsion, history=history,
                           nav=self._navigation(p, k, fresh), arm=self.arm)
 
         plan = attempt(scfg)
@@ -245,6 +255,11 @@ class FieldPlanner:
             deep = attempt(replace(scfg, max_expansions=cfg.deep_budget))
             if deep.status == REACHED:
                 return deep
+        if cfg.tight_margin is not None and cfg.tight_margin < cfg.repulsion.margin:  # too narrow: a thinner margin
+            tight = attempt(scfg, repulsion=replace(cfg.repulsion, margin=cfg.tight_margin))
+            if tight.status == REACHED:
+                self.tight_plans += 1
+                return tight
         return plan
 
     def _history(self, end: float, length: float, spacing: float = 0.02) -> NDArray[np.float64]:

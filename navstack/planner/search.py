@@ -191,6 +191,7 @@ class Plan:
         stops: (S,) arc lengths [m] of the samples that lie exactly on a goal (where a goal shot ends), in
             order: the command lands on each (:class:`~navstack.planner.steering.PlanFollower`), so the
             tip is there at a control step however small the goal's tolerance.
+        repulsion: the repulsion (clearances) the search kept; None: not known (a plan made by hand).
     """
 
     points: NDArray[np.float64]
@@ -201,6 +202,7 @@ class Plan:
     cost: float
     expansions: int
     stops: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    repulsion: Repulsion | None = None
 
     @property
     def length(self) -> float:
@@ -891,7 +893,10 @@ def only_the_arm_blocks(smap: SensedMap, p0: ArrayLike, h0: ArrayLike, goals: Ar
 def still_clear(smap: SensedMap, plan: Plan, s: float, history: ArrayLike, config: SearchConfig,
                 repulsion: Repulsion, arm: ArmShape | None = None) -> bool:
     """Whether the rest of ``plan`` from arc length ``s`` is still clear in the map as it is now (the
-    tip and the body, as :func:`search` requires), the body lying along ``history`` behind it."""
+    tip and the body, as :func:`search` requires), the body lying along ``history`` behind it; with the
+    clearances of ``plan.repulsion`` (those it was searched with), else of ``repulsion``."""
+    if plan.repulsion is not None:
+        repulsion = plan.repulsion
     i = int(np.searchsorted(plan.arc, s))
     pts = np.ascontiguousarray(plan.points[i:])
     if len(pts) == 0:
@@ -1023,7 +1028,8 @@ def search(smap: SensedMap, start: ArrayLike, heading: ArrayLike, goals: ArrayLi
         box_lo, box_hi, buf.P, buf.H, buf.K, buf.G, buf.PAR, buf.KAP, buf.DIR, buf.END, buf.L, buf.TURN)
     if status == PARTIAL and last == 0:
         status = NO_PATH  # no state closer to the goal than the start: no way on
-    return _densify(buf, int(status), int(last), int(expansions), p0, h0, k0, dc, ds, sample)
+    return replace(_densify(buf, int(status), int(last), int(expansions), p0, h0, k0, dc, ds, sample),
+                   repulsion=repulsion)
 
 
 def navigation_region(p0: NDArray[np.float64], goal: NDArray[np.float64],
