@@ -492,7 +492,47 @@ def test_the_larger_goal_ball_is_tried_again_from_the_robot_not_from_each_branch
     monkeypatch.setattr(field, "search", spy)
     p0, h0 = pl.follower.state()
     pl._plan_from(p0, h0, 0)
-    assert fractions == [CFG.search.goal_fraction, field.RELAXED_GOAL_FRACTION]
+    assert fractions == [CFG.search.goal_fraction, field.RELAXED_GOAL_FRACTION, CFG.search.goal_fraction]  # tight
     fractions.clear()
     pl._plan_from(p0, h0, 0, at=pl.path.end_arc_length)
     assert fractions == [CFG.search.goal_fraction]
+
+
+def _planner_before_a_narrow_slot(half_width: float, config: FieldPlannerConfig = CFG) -> FieldPlanner:
+    """A planner at the origin heading +x, its goal 1.0 m on, behind a sensed wall at x = 0.5 (points every
+    1 cm) with a vertical slot ``2 half_width`` wide centred on the way."""
+    planner = FieldPlanner((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), [(1.0, 0.0, 0.0)], [0.02], config=config)
+    side = half_width + np.arange(0.0, 0.5, 0.01)
+    y, z = (v.ravel() for v in np.meshgrid(np.concatenate([-side, side]), np.arange(-0.4, 0.4 + 1e-9, 0.01)))
+    planner.map.add_points(np.column_stack([np.full(len(y), 0.5), y, z]))
+    planner.map.mark_free(planner.map.origin + 0.5 * planner.map.free_dims * planner.map.config.free_cell, 10.0)
+    return planner
+
+
+def test_a_slot_too_narrow_for_the_margin_gets_a_plan_with_the_tight_margin():
+    """A 68 mm slot: the tip's centre can keep 34 mm from its sides, under r_block (35 mm), over body_radius +
+    tight_margin (28 mm).  The full replan finds no way with the margin, then one with the tight margin; the plan
+    carries the repulsion it was searched with, and still holds by it (not by the planner's own)."""
+    from navstack.planner.search import still_clear
+
+    pl = _planner_before_a_narrow_slot(0.034)
+    p0, h0 = pl.follower.state()
+    plan = pl._plan_from(p0, h0, 0)
+    assert plan.status == REACHED and pl.tight_plans == 1
+    assert plan.repulsion.margin == CFG.tight_margin
+    history = pl._history(pl.path.end_arc_length, 1.5)
+    assert still_clear(pl.map, plan, 0.0, history, CFG.search, CFG.repulsion)  # by the plan's own margin
+    assert not still_clear(pl.map, replace(plan, repulsion=None), 0.0, history, CFG.search, CFG.repulsion)
+    none = _planner_before_a_narrow_slot(0.034, replace(CFG, tight_margin=None))
+    assert none._plan_from(p0, h0, 0).status != REACHED and none.tight_plans == 0
+    wide = _planner_before_a_narrow_slot(0.04)  # 80 mm: the margin fits, no tight try
+    plan = wide._plan_from(p0, h0, 0)
+    assert plan.status == REACHED and plan.repulsion == CFG.repulsion and wide.tight_plans == 0
+    too_narrow = _planner_before_a_narrow_slot(0.027)  # 54 mm: not even with the tight margin
+    assert too_narrow._plan_from(p0, h0, 0).status != REACHED and too_narrow.tight_plans == 0
+
+
+@pytest.mark.parametrize("bad", [-0.001, math.nan, math.inf, True, "0.003"])
+def test_tight_margin_is_checked(bad):
+    with pytest.raises(ValueError, match="tight_margin"):
+        FieldPlannerConfig(tight_margin=bad)

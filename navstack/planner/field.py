@@ -10,7 +10,8 @@ sensing.  Here the field is descended along paths the tip can actually follow:
 3. **search** (:mod:`navstack.planner.search`): a hybrid A* over curvature-bounded arcs from the
    commanded state through every remaining goal: the path of least potential that the tip can
    follow; **replanned** when a new surface point comes near the path ahead, when the goal index
-   moves, and every ``replan_period`` while the map changes;
+   moves, and every ``replan_period`` while the map changes; a full replan that finds no path keeping
+   ``Repulsion.margin`` tries once more with ``tight_margin`` (a passage too narrow for the margin);
 4. **steering** (:mod:`navstack.planner.steering`): the command runs along the plan, slowing near
    surfaces, stopping at the plan's end;
 5. **escape** (:mod:`navstack.planner.escape`): when no path leads on, back out along the tip's own
@@ -185,6 +186,7 @@ class FieldPlanner:
         """Goals the command itself has passed (within the search's reach of them), in order."""
         self._goal_retreats: dict[int, int] = {}
         self._deep_done: tuple[int, int] | None = None  # (goal, its escapes) of the last deeper search
+        self.tight_plans = 0  # plans found only with FieldPlannerConfig.tight_margin
         self.follower = PlanFollower(self._plan_from(self.start, h / np.linalg.norm(h), 0), cfg.steering)
         self.goal_index = 0
         self.mode = "plan"
@@ -196,7 +198,6 @@ class FieldPlanner:
         self._planned_at = 0.0
         self._planned_version = -1
         self.replans = 0
-        self.tight_plans = 0  # plans found only with FieldPlannerConfig.tight_margin
         self.retreats = 0
         self._command_goal_s = 0.0
         self._last_branch: float | None = None
