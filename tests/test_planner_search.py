@@ -16,9 +16,9 @@ from _clouds import box_surface
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
+import navstack.planner.search as search_mod
 from navstack.planner.map import SensedMap
 from navstack.planner.potential import Repulsion
-import navstack.planner.search as search_mod
 from navstack.planner.search import NO_PATH, PARTIAL, REACHED, Plan, SearchConfig, search, turn_then_straight
 
 CFG = SearchConfig()
