@@ -492,27 +492,33 @@ def test_the_larger_goal_ball_is_tried_again_from_the_robot_not_from_each_branch
     monkeypatch.setattr(field, "search", spy)
     p0, h0 = pl.follower.state()
     pl._plan_from(p0, h0, 0)
-    assert fractions == [CFG.search.goal_fraction, field.RELAXED_GOAL_FRACTION, CFG.search.goal_fraction]  # tight
+    assert fractions == [CFG.search.goal_fraction, field.RELAXED_GOAL_FRACTION]  # spent budgets: no tight try
     fractions.clear()
     pl._plan_from(p0, h0, 0, at=pl.path.end_arc_length)
     assert fractions == [CFG.search.goal_fraction]
 
 
 def _planner_before_a_narrow_slot(half_width: float, config: FieldPlannerConfig = CFG) -> FieldPlanner:
-    """A planner at the origin heading +x, its goal 1.0 m on, behind a sensed wall at x = 0.5 (points every
-    1 cm) with a vertical slot ``2 half_width`` wide centred on the way."""
+    """A planner at the origin heading +x inside a sensed square duct (walls 8 cm from its axis, from x = -0.3
+    to 0.3; points every 1 cm), its end at x = 0.3 a plate with a vertical slot ``2 half_width`` wide on the
+    axis; the goal 1.0 m on, behind the plate."""
     planner = FieldPlanner((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), [(1.0, 0.0, 0.0)], [0.02], config=config)
-    side = half_width + np.arange(0.0, 0.5, 0.01)
-    y, z = (v.ravel() for v in np.meshgrid(np.concatenate([-side, side]), np.arange(-0.4, 0.4 + 1e-9, 0.01)))
-    planner.map.add_points(np.column_stack([np.full(len(y), 0.5), y, z]))
+    x, c = np.arange(-0.3, 0.3 + 1e-9, 0.01), np.arange(-0.08, 0.08 + 1e-9, 0.01)
+    X, C = (v.ravel() for v in np.meshgrid(x, c))
+    walls = [np.column_stack([X, np.full(len(X), w), C]) for w in (-0.08, 0.08)]
+    walls += [np.column_stack([X, C, np.full(len(X), w)]) for w in (-0.08, 0.08)]
+    side = np.arange(half_width, 0.08 + 1e-9, 0.01)
+    Y, Z = (v.ravel() for v in np.meshgrid(np.concatenate([-side, side]), c))
+    planner.map.add_points(np.vstack([*walls, np.column_stack([np.full(len(Y), 0.3), Y, Z])]))
     planner.map.mark_free(planner.map.origin + 0.5 * planner.map.free_dims * planner.map.config.free_cell, 10.0)
     return planner
 
 
 def test_a_slot_too_narrow_for_the_margin_gets_a_plan_with_the_tight_margin():
-    """A 68 mm slot: the tip's centre can keep 34 mm from its sides, under r_block (35 mm), over body_radius +
-    tight_margin (28 mm).  The full replan finds no way with the margin, then one with the tight margin; the plan
-    carries the repulsion it was searched with, and still holds by it (not by the planner's own)."""
+    """A 68 mm slot at a duct's end: the tip's centre can keep 34 mm from its sides, under r_block (35 mm), over
+    body_radius + tight_margin (30 mm).  The full replan finds no way with the margin (NO_PATH), then one with the
+    tight margin; the plan carries the repulsion it was searched with, and still holds by it (not by the
+    planner's own)."""
     from navstack.planner.search import still_clear
 
     pl = _planner_before_a_narrow_slot(0.034)
