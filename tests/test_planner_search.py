@@ -723,3 +723,27 @@ def test_search_answers_on_a_fixed_scene_are_those_recorded_before_issue_11(goal
     assert plan.status == status
     assert plan.expansions == pytest.approx(expansions, rel=0.01)
     assert plan.cost == pytest.approx(cost, rel=1e-3)
+
+
+def test_the_last_link_check_never_passes_a_point_within_its_radius_of_the_chord():
+    """Soundness of the last link's check against the exact distance from a point to the chord: a point closer
+    than r to it, wherever along it (between two samples too), fails the check; one farther than sqrt(r^2 + (h/2)^2),
+    h the samples' spacing, passes it.  With 5 samples at r alone, a point 32 mm beside the chord
+    midway between two samples (3.3 cm apart) passed: 4 mm inside r."""
+    from navstack.planner.proximity import point_index
+
+    rng = np.random.default_rng(11)
+    a, b = np.array([-0.2, 0.0, 0.0]), np.zeros(3)
+    r = RB
+    half = 0.5 * 0.2 / search_mod._CHORD_SAMPLES
+    for _ in range(200):
+        f = rng.uniform(0.05, 0.95)
+        ang = rng.uniform(0.0, 2.0 * math.pi)
+        d = rng.uniform(0.5 * r, math.sqrt(r * r + half * half) + 0.005)
+        p = a + f * (b - a) + d * np.array([0.0, math.cos(ang), math.sin(ang)])
+        smap = _map(p[None])
+        clear = search_mod._last_link_clear(a[None], *b, r, *point_index(smap))
+        if d < r:
+            assert not clear, f"a point {d * 1e3:.1f} mm from the chord at {f:.2f} of it passed"
+        elif d >= math.sqrt(r * r + half * half):
+            assert clear, f"a point {d * 1e3:.1f} mm from the chord at {f:.2f} of it failed"
