@@ -636,8 +636,8 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
     """Hybrid A* (see the module docstring).  Node arrays are preallocated by the caller.
 
     ``cfg`` = [step, samples, cell, heading_bin, epsilon, w_turn, max_expansions, max_length,
-    start_relax, r_start, kappa_max, body_radius, link_length, arm_clearance, length_factor,
-    length_slack, arm_reach].  ``arm_pts`` (k, 3): the arm's axis at the start, ``flange`` (3,) the
+    start_relax, r_start, kappa_max, link_length, arm_clearance, length_factor, length_slack, arm_reach]
+    (``r_start``: :func:`start_radius`).  ``arm_pts`` (k, 3): the arm's axis at the start, ``flange`` (3,) the
     flange there; a state is expanded only if the arm, carried along with the flange (the sixth chord
     point behind it), keeps ``arm_reach`` from every surface point (no ``arm_pts``: the flange and the
     point one link behind it keep ``arm_clearance`` instead, checked with each primitive).
@@ -656,10 +656,10 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
     relax = cfg[8]
     r_start = cfg[9]
     kappa_max = cfg[10]
-    link = cfg[12]
+    link = cfg[11]
     use_arm = arm_pts.shape[0] > 0
-    r_arm = 0.0 if use_arm else cfg[13]  # the flange and the point behind it, only without the arm's shape
-    arm_reach = cfg[16]
+    r_arm = 0.0 if use_arm else cfg[12]  # the flange and the point behind it, only without the arm's shape
+    arm_reach = cfg[15]
     line = np.empty((512, 3))
     chain_pts = np.empty((8, 3))  # the chain's points
     samp = np.empty((n_samp, 3))
@@ -692,7 +692,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
     # turning circle allows a loop); states are pruned against it by a lower bound on their length to go
     len_start = _heuristic(p0[0], p0[1], p0[2], h0[0], h0[1], h0[2], k0, -2, goals, reach, rest, nav, nav_origin,
                            nav_cell, radius)
-    bound = cfg[14] * len_start + cfg[15]
+    bound = cfg[13] * len_start + cfg[14]
     best_node = 0
     best_h = h_start
     expansions = 0
@@ -1021,7 +1021,7 @@ def search(smap: SensedMap, start: ArrayLike, heading: ArrayLike, goals: ArrayLi
     cfg = np.array([config.step, config.samples, config.cell, config.heading_bin, config.epsilon, config.w_turn,
                     config.max_expansions, config.max_length, config.start_relax,
                     start_radius(smap, p0, hist, config, repulsion),
-                    1.0 / config.min_turn_radius, repulsion.body_radius, config.link_length,
+                    1.0 / config.min_turn_radius, config.link_length,
                     min(config.arm_clearance, smap.config.bucket), config.length_factor, config.length_slack,
                     arm_reach])
     rep = repulsion.vector()
