@@ -106,27 +106,40 @@ def test_distance_below_and_nearest_in_equal_the_map_lists_scan_bit_for_bit(seed
     assert below > 1000
 
 
+def _segment_distances(live: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Each point's exact distance to the segment a-b, in numpy (an independent reference)."""
+    d = b - a
+    dd = float(d @ d)
+    u = np.clip((live - a) @ d / dd, 0.0, 1.0) if dd > 0 else np.zeros(len(live))
+    return np.linalg.norm(live - (a + u[:, None] * d), axis=1)
+
+
 @pytest.mark.parametrize("seed", range(3))
-def test_samples_clear_is_distance_below_at_every_sample(seed):
-    from navstack.planner.proximity import samples_clear
+def test_segment_distance_below_is_the_exact_distance_to_the_segment(seed):
+    """Against every live point's distance to the segment computed in numpy: the nearest below ``r`` (else
+    ``r``), and with ``first`` an answer below ``r`` exactly when some point is nearer than ``r``; segments near the
+    clusters and anywhere, 0 to 0.3 m long, ``r`` either side of a bucket's width (the neighbourhood's size)."""
+    from navstack.planner.proximity import segment_distance_below
 
     smap = _random_map(seed)
     index = point_index(smap)
-    rng = np.random.default_rng(200 + seed)
+    rng = np.random.default_rng(300 + seed)
     live = smap.points
     bucket = smap.config.bucket
     outcomes = {True: 0, False: 0}
-    for r in (0.01, 0.028, 0.035, bucket - 2e-6, bucket, 0.05):
-        for t in range(300):
+    for r in (0.01, 0.028, 0.035, 0.038, bucket - 2e-6, bucket, 0.05, 0.079, 0.09):
+        for t in range(200):
             a = (live[rng.integers(0, len(live))] + 0.06 * rng.normal(size=3) if t % 3
                  else rng.uniform(-0.5, 1.0, size=3))  # near the clusters, or anywhere (also beyond the box)
             d = rng.normal(size=3)
-            b = a + rng.uniform(0.02, 0.25) * d / np.linalg.norm(d)
-            fracs = (np.array([1, 2, 3, 4, 5]) / 6.0 if t % 2 else np.sort(rng.random(rng.integers(1, 9))))
-            got = samples_clear(*a, *b, fracs, r, *index)
-            want = all(distance_below(*(a + f * (b - a)), r, *index) >= r for f in fracs)
-            assert got == want, (a, b, fracs, r)
-            outcomes[got] += 1
+            b = a + (rng.uniform(0.0, 0.3) if t % 10 else 0.0) * d / np.linalg.norm(d)
+            true = float(_segment_distances(live, a, b).min())
+            got = segment_distance_below(*a, *b, r, False, *index)
+            assert got == pytest.approx(min(true, r), abs=1e-12), (a, b, r, got, true)
+            if abs(true - r) > 1e-9:
+                near = segment_distance_below(*a, *b, r, True, *index) < r
+                assert near == (true < r), (a, b, r, true)
+                outcomes[near] += 1
     assert min(outcomes.values()) > 300, outcomes  # both answers, many times
 
 

@@ -8,11 +8,11 @@ within ``REACH`` buckets in each axis, and apart every bucket with one in its 3 
 (:func:`nearest_in`).  The scan of ``nearest_distance`` never leaves that neighbourhood for ``r <= REACH *
 bucket``, so the answer is the same, bit for bit.
 
-Queries come in groups, the samples of one motion primitive a centimetre apart and the points along the
-last link: :func:`distances_below` answers a group from one pass over the buckets around it (each bucket
-walked once, not once per point, a long run of them cut to the heights that can hold a nearer point), and
-:func:`samples_clear` checks the points along a link, a bucket's width or less from surfaces, each in its
-own neighbourhood; the same answers.
+Queries come in groups: the samples of one motion primitive a centimetre apart, which
+:func:`distances_below` answers from one pass over the buckets around them (each bucket walked once, not once
+per point, a long run of them cut to the heights that can hold a nearer point), the same answers; and a link,
+a segment whose exact distance to the nearest point :func:`segment_distance_below` finds from the buckets
+around a few samples along it.
 
 A search asks its questions of a map that does not change while it runs, so it asks them of a snapshot,
 :func:`point_index`: the live points copied out bucket by bucket, in the buckets' order (compressed
@@ -33,7 +33,7 @@ from navstack.jit import kernel
 from navstack.planner.map import SensedMap, _cell
 
 __all__ = ["ADJACENT", "REACH", "distance_below", "distances_below", "filled_buckets", "nearest_in", "occupied_near",
-           "point_index", "samples_clear", "sets_closer_than"]
+           "point_index", "segment_distance_below", "sets_closer_than"]
 
 REACH = 2
 """Buckets of neighbourhood the mask covers (queries up to ``REACH * bucket`` use it)."""
@@ -237,49 +237,55 @@ def distance_below(px, py, pz, r, occ, start, S, origin, bucket, dims):  # pragm
 
 
 @kernel
-def samples_clear(ax, ay, az, bx, by, bz, fracs, r, occ, start, S, origin, bucket, dims):  # pragma: no cover
-    """True if every point ``a + f (b - a)``, ``f`` in ``fracs``, keeps ``r`` from every live point:
-    ``distance_below(x, r) >= r`` at each, the same answer.  For ``r`` under a bucket each point's scan is
-    one run of points per column of its 3 x 3 x 3 buckets (a point within ``r`` lies in a neighbouring
-    bucket), skipped where the mask shows none of them holds a point (:data:`ADJACENT`); for larger ``r``,
-    :func:`distance_below`."""
-    n = fracs.shape[0]
-    wide = r >= bucket - 1e-6
+def segment_distance_below(ax, ay, az, bx, by, bz, r, first, occ, start, S, origin, bucket,
+                           dims):  # pragma: no cover - jitted
+    """The distance [m] from the segment a-b to the nearest live point, exact below ``r``, else ``r``; with
+    ``first``, the first distance found below ``r`` instead (enough to tell that the segment does not keep
+    ``r``).  Each point's distance is to the segment itself, not to samples along it.  Scanned: the buckets
+    within ``m`` of samples along the segment spaced so that every point within ``r`` of it is nearer than
+    ``m`` buckets to a sample (within ``sqrt(r^2 + (h / 2)^2) < m * bucket`` of the nearest sample, ``h`` their
+    spacing), so in its ``(2 m + 1)^3`` buckets; those whose mask shows no point that near are skipped."""
+    m = int(math.floor(r / bucket)) + 1
+    if m * bucket < 1.05 * r:
+        m += 1  # a roomier neighbourhood rather than samples a few millimetres apart
+    reach = m * bucket
+    dx, dy, dz = bx - ax, by - ay, bz - az
+    dd = dx * dx + dy * dy + dz * dz
+    h = 1.98 * math.sqrt(reach * reach - r * r)  # (2 sqrt(reach^2 - r^2), less 1 %)
+    n = max(1, int(math.ceil(math.sqrt(dd) / h)))
     r2 = r * r
-    for t in range(n):
-        f = fracs[t]
-        x, y, z = ax + f * (bx - ax), ay + f * (by - ay), az + f * (bz - az)
-        if wide:
-            if distance_below(x, y, z, r, occ, start, S, origin, bucket, dims) < r:
-                return False
-            continue
+    best = r2
+    for t in range(n + 1):
+        f = t / n
+        x, y, z = ax + f * dx, ay + f * dy, az + f * dz
         i = _cell(x, origin, bucket, dims, 0)
         j = _cell(y, origin, bucket, dims, 1)
         k = _cell(z, origin, bucket, dims, 2)
-        if occ[i, j, k] & ADJACENT == 0:
-            continue  # its 3 x 3 x 3 buckets hold no point
-        k0 = max(k - 1, 0)
-        k1 = min(k + 2, dims[2])
-        for ii in range(max(i - 1, 0), min(i + 2, dims[0])):
-            for jj in range(max(j - 1, 0), min(j + 2, dims[1])):
+        if (m == 1 and occ[i, j, k] & ADJACENT == 0) or (m == REACH and occ[i, j, k] == 0):
+            continue  # no point within m buckets
+        k0 = max(k - m, 0)
+        k1 = min(k + m + 1, dims[2])
+        for ii in range(max(i - m, 0), min(i + m + 1, dims[0])):
+            for jj in range(max(j - m, 0), min(j + m + 1, dims[1])):
                 base = (ii * dims[1] + jj) * dims[2]  # the column's buckets k0 .. k1 - 1
                 for q in range(start[base + k0], start[base + k1]):
-                    dx = S[q, 0] - x
-                    dy = S[q, 1] - y
-                    dz = S[q, 2] - z
-                    d2 = dx * dx + dy * dy + dz * dz
-                    if d2 < r2 and math.sqrt(d2) < r:
-                        return False
-    return True
+                    wx, wy, wz = S[q, 0] - ax, S[q, 1] - ay, S[q, 2] - az
+                    u = (wx * dx + wy * dy + wz * dz) / dd if dd > 0.0 else 0.0
+                    u = 0.0 if u < 0.0 else (1.0 if u > 1.0 else u)
+                    ex, ey, ez = wx - u * dx, wy - u * dy, wz - u * dz
+                    d2 = ex * ex + ey * ey + ez * ez
+                    if d2 < best:
+                        best = d2
+                        if first and math.sqrt(d2) < r:
+                            return math.sqrt(d2)
+    return math.sqrt(best)
 
 
 @kernel
 def distances_below(xs, n, r, out, occ, start, S, origin, bucket, dims):  # pragma: no cover
     """``out[t] = distance_below(xs[t], r)`` for ``t < n``, bit for bit, from one scan of the buckets around
     all ``n`` points (each visited once; a point's own scan covers the buckets within ``ceil(r / bucket)`` of
-    its own, and every point outside them is farther than ``r``).  :func:`samples_clear` is the same pass for a
-    yes-or-no answer: it stops at the first point within ``r`` and skips buckets beyond every sample's own
-    neighbourhood, which pays on a 0.13 m chord but not on a primitive's samples 1 cm apart."""
+    its own, and every point outside them is farther than ``r``)."""
     m = int(math.ceil(r / bucket))
     r2 = r * r
     near = 0

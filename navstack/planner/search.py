@@ -47,16 +47,13 @@ from navstack.planner.potential import (
     navigation_function,
     wave_value,
 )
-from navstack.planner.proximity import distance_below, distances_below, point_index, samples_clear
+from navstack.planner.proximity import distance_below, distances_below, point_index, segment_distance_below
 
 __all__ = ["NO_PATH", "PARTIAL", "REACHED", "ArmShape", "Plan", "SearchConfig", "only_the_arm_blocks", "search",
            "still_clear"]
 
 REACHED, PARTIAL, NO_PATH = 0, 1, 2
 
-_CHORD_SAMPLES = 12
-_CHORD_FRACTIONS = np.arange(1, _CHORD_SAMPLES) / _CHORD_SAMPLES
-"""Where along the last link (a 0.2 m chord) its clearance is checked: every 1.7 cm (:func:`_last_link_clear`)."""
 
 
 @dataclass(frozen=True)
@@ -438,14 +435,11 @@ def _chain(line, n, L, count, pts):  # pragma: no cover - jitted
 @kernel
 def _last_link_clear(pts, qx, qy, qz, r, occ, start, S, origin, bucket, bdims):  # pragma: no cover
     """The last link, the chord from the first chain point ``pts[0]`` to the tip q, keeps ``r`` from every
-    surface point: each sample at :data:`_CHORD_FRACTIONS` of it keeps ``sqrt(r^2 + (h / 2)^2)``, h the samples'
-    spacing, so a point between two samples keeps ``r`` from the chord too (the ends are the tip and a point
-    the tip has passed, each checked with ``r``).  With 5 samples and ``r`` alone, a point midway between two
-    could come 4 mm closer (3.3 cm apart, r = 35 mm)."""
-    dx, dy, dz = qx - pts[0, 0], qy - pts[0, 1], qz - pts[0, 2]
-    half = 0.5 * math.sqrt(dx * dx + dy * dy + dz * dz) / _CHORD_SAMPLES
-    return samples_clear(pts[0, 0], pts[0, 1], pts[0, 2], qx, qy, qz, _CHORD_FRACTIONS, math.sqrt(r * r + half * half),
-                         occ, start, S, origin, bucket, bdims)
+    surface point: the exact distance from each point to the chord, wherever along it (samples along the chord
+    checked with ``r`` alone let a point midway between two come closer: 4 mm closer with 5 samples 3.3 cm
+    apart, r = 35 mm; checked with a radius grown to cover the gap, they refuse a chord that keeps ``r``)."""
+    return segment_distance_below(pts[0, 0], pts[0, 1], pts[0, 2], qx, qy, qz, r, True, occ, start, S, origin,
+                                  bucket, bdims) >= r
 
 
 @kernel
@@ -954,8 +948,8 @@ def primitives(config: SearchConfig) -> tuple[NDArray[np.float64], NDArray[np.fl
 @numba.njit(cache=True)
 def _start_clearance(p0, hist, L, r, occ, start, S, origin, bucket, bdims):  # pragma: no cover - jitted
     """The start's clearance up to ``r`` [m]: the smaller of the tip's ``p0`` and its last link's (the chord one
-    ``L`` back along ``hist``, oldest first and ending at ``p0``, at :data:`_CHORD_FRACTIONS`; none if the
-    history is shorter) distances to the nearest surface point."""
+    ``L`` back along ``hist``, oldest first and ending at ``p0``; none if the history is shorter) distances to the
+    nearest surface point."""
     n = hist.shape[0]
     line = np.empty((n, 3))
     for i in range(n):
@@ -965,10 +959,8 @@ def _start_clearance(p0, hist, L, r, occ, start, S, origin, bucket, bdims):  # p
     pts = np.empty((1, 3))
     if _chain(line, n, L, 1, pts) < 1:
         return d
-    for f in _CHORD_FRACTIONS:
-        d = min(d, distance_below(pts[0, 0] + f * (p0[0] - pts[0, 0]), pts[0, 1] + f * (p0[1] - pts[0, 1]),
-                                  pts[0, 2] + f * (p0[2] - pts[0, 2]), r, occ, start, S, origin, bucket, bdims))
-    return d
+    return min(d, segment_distance_below(pts[0, 0], pts[0, 1], pts[0, 2], p0[0], p0[1], p0[2], r, False, occ, start,
+                                         S, origin, bucket, bdims))
 
 
 def start_radius(smap: SensedMap, p0: NDArray[np.float64], hist: NDArray[np.float64], config: SearchConfig,
