@@ -726,22 +726,29 @@ def test_search_answers_on_a_fixed_scene_are_those_recorded_before_issue_11(goal
 
 
 def test_the_last_link_check_is_the_exact_distance_to_the_chord():
-    """The last link's check against the exact distance from a point to the chord, wherever along it: a point
-    closer than r fails it, one farther passes it, to 0.05 mm either side of r.  Samples along the chord let a
-    point between two of them through (5 samples at r alone: one 32 mm beside the chord midway between two,
-    3.3 cm apart, 4 mm inside r) or, checked with a radius grown to cover the gap, refuse a chord that keeps r
-    (up to 1 mm more with 11 samples: a narrow way in ``worlds/bend_clutter.json`` no longer found)."""
+    """The last link's check against the exact distance from a point to the chord between ``_LINK_END`` of it
+    from either end (its ends are the tip and a point the tip has passed, checked as such), computed in numpy: a
+    point closer than r fails it, one farther passes it, to 0.05 mm either side of r, wherever along the chord.
+    Samples along the chord let a point between two of them through (5 samples at r alone: one 32 mm beside the
+    chord midway between two, 3.3 cm apart, 4 mm inside r) or, checked with a radius grown to cover the gap,
+    refuse a chord that keeps r (up to 1 mm more with 11 samples: a narrow way in ``worlds/bend_clutter.json``
+    no longer found)."""
     from navstack.planner.proximity import point_index
 
     rng = np.random.default_rng(11)
     a, b = np.array([-0.2, 0.0, 0.0]), np.zeros(3)
+    e = search_mod._LINK_END
+    lo, hi = a + e * (b - a), a + (1.0 - e) * (b - a)
     r = RB
     seen = {True: 0, False: 0}
-    for _ in range(300):
-        f = rng.uniform(0.0, 1.0)
+    for _ in range(400):
+        f = rng.uniform(-0.1, 1.1)
         ang = rng.uniform(0.0, 2.0 * math.pi)
-        d = r + rng.choice([-1.0, 1.0]) * rng.uniform(5e-5, 0.01)
-        p = a + f * (b - a) + d * np.array([0.0, math.cos(ang), math.sin(ang)])
+        p = a + f * (b - a) + rng.uniform(0.0, r + 0.01) * np.array([0.0, math.cos(ang), math.sin(ang)])
+        u = np.clip((p - lo) @ (hi - lo) / ((hi - lo) @ (hi - lo)), 0.0, 1.0)
+        d = float(np.linalg.norm(p - (lo + u * (hi - lo))))
+        if abs(d - r) < 5e-5:
+            continue
         smap = _map(p[None])
         clear = search_mod._last_link_clear(a[None], *b, r, *point_index(smap))
         assert clear == (d >= r), f"a point {d * 1e3:.2f} mm from the chord at {f:.2f} of it: clear={clear}"

@@ -54,6 +54,10 @@ __all__ = ["NO_PATH", "PARTIAL", "REACHED", "ArmShape", "Plan", "SearchConfig", 
 
 REACHED, PARTIAL, NO_PATH = 0, 1, 2
 
+_LINK_END = 1.0 / 12.0
+"""The fraction of the last link at either end that its clearance check leaves out: its ends are the tip (checked
+by the path's own samples) and a point the tip has passed (checked when it was the tip, and where the body
+already is); the check covers what its 11 samples once did, exactly (:func:`_last_link_clear`)."""
 
 
 @dataclass(frozen=True)
@@ -435,11 +439,15 @@ def _chain(line, n, L, count, pts):  # pragma: no cover - jitted
 @kernel
 def _last_link_clear(pts, qx, qy, qz, r, occ, start, S, origin, bucket, bdims):  # pragma: no cover
     """The last link, the chord from the first chain point ``pts[0]`` to the tip q, keeps ``r`` from every
-    surface point: the exact distance from each point to the chord, wherever along it (samples along the chord
-    checked with ``r`` alone let a point midway between two come closer: 4 mm closer with 5 samples 3.3 cm
-    apart, r = 35 mm; checked with a radius grown to cover the gap, they refuse a chord that keeps ``r``)."""
-    return segment_distance_below(pts[0, 0], pts[0, 1], pts[0, 2], qx, qy, qz, r, True, occ, start, S, origin,
-                                  bucket, bdims) >= r
+    surface point between :data:`_LINK_END` of it from either end: the exact distance from each point to that
+    part of the chord (samples along it checked with ``r`` alone let a point midway between two come closer, 4 mm
+    with 5 samples 3.3 cm apart, r = 35 mm; checked with a radius grown to cover the gap, they refuse a chord that
+    keeps ``r``, by up to 1 mm with 11 samples)."""
+    ax, ay, az = pts[0, 0], pts[0, 1], pts[0, 2]
+    dx, dy, dz = qx - ax, qy - ay, qz - az
+    e, f = _LINK_END, 1.0 - _LINK_END
+    return segment_distance_below(ax + e * dx, ay + e * dy, az + e * dz, ax + f * dx, ay + f * dy, az + f * dz, r,
+                                  True, occ, start, S, origin, bucket, bdims) >= r
 
 
 @kernel
@@ -948,8 +956,8 @@ def primitives(config: SearchConfig) -> tuple[NDArray[np.float64], NDArray[np.fl
 @numba.njit(cache=True)
 def _start_clearance(p0, hist, L, r, occ, start, S, origin, bucket, bdims):  # pragma: no cover - jitted
     """The start's clearance up to ``r`` [m]: the smaller of the tip's ``p0`` and its last link's (the chord one
-    ``L`` back along ``hist``, oldest first and ending at ``p0``; none if the history is shorter) distances to the
-    nearest surface point."""
+    ``L`` back along ``hist``, oldest first and ending at ``p0``, between :data:`_LINK_END` of it from either end;
+    none if the history is shorter) distances to the nearest surface point."""
     n = hist.shape[0]
     line = np.empty((n, 3))
     for i in range(n):
@@ -959,8 +967,11 @@ def _start_clearance(p0, hist, L, r, occ, start, S, origin, bucket, bdims):  # p
     pts = np.empty((1, 3))
     if _chain(line, n, L, 1, pts) < 1:
         return d
-    return min(d, segment_distance_below(pts[0, 0], pts[0, 1], pts[0, 2], p0[0], p0[1], p0[2], r, False, occ, start,
-                                         S, origin, bucket, bdims))
+    ax, ay, az = pts[0, 0], pts[0, 1], pts[0, 2]
+    dx, dy, dz = p0[0] - ax, p0[1] - ay, p0[2] - az
+    e, f = _LINK_END, 1.0 - _LINK_END
+    return min(d, segment_distance_below(ax + e * dx, ay + e * dy, az + e * dz, ax + f * dx, ay + f * dy, az + f * dz,
+                                         r, False, occ, start, S, origin, bucket, bdims))
 
 
 def start_radius(smap: SensedMap, p0: NDArray[np.float64], hist: NDArray[np.float64], config: SearchConfig,
