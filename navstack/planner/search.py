@@ -437,17 +437,24 @@ def _chain(line, n, L, count, pts):  # pragma: no cover - jitted
 
 
 @kernel
+def _link_distance(ax, ay, az, qx, qy, qz, r, first, occ, start, S, origin, bucket, bdims):  # pragma: no cover
+    """:func:`~navstack.planner.proximity.segment_distance_below` of the last link, the chord from a (the first
+    chain point) to the tip q, between :data:`_LINK_END` of it from either end."""
+    dx, dy, dz = qx - ax, qy - ay, qz - az
+    e, f = _LINK_END, 1.0 - _LINK_END
+    return segment_distance_below(ax + e * dx, ay + e * dy, az + e * dz, ax + f * dx, ay + f * dy, az + f * dz, r,
+                                  first, occ, start, S, origin, bucket, bdims)
+
+
+@kernel
 def _last_link_clear(pts, qx, qy, qz, r, occ, start, S, origin, bucket, bdims):  # pragma: no cover
     """The last link, the chord from the first chain point ``pts[0]`` to the tip q, keeps ``r`` from every
     surface point between :data:`_LINK_END` of it from either end: the exact distance from each point to that
     part of the chord (samples along it checked with ``r`` alone let a point midway between two come closer, 4 mm
     with 5 samples 3.3 cm apart, r = 35 mm; checked with a radius grown to cover the gap, they refuse a chord that
     keeps ``r``, by up to 1 mm with 11 samples)."""
-    ax, ay, az = pts[0, 0], pts[0, 1], pts[0, 2]
-    dx, dy, dz = qx - ax, qy - ay, qz - az
-    e, f = _LINK_END, 1.0 - _LINK_END
-    return segment_distance_below(ax + e * dx, ay + e * dy, az + e * dz, ax + f * dx, ay + f * dy, az + f * dz, r,
-                                  True, occ, start, S, origin, bucket, bdims) >= r
+    return _link_distance(pts[0, 0], pts[0, 1], pts[0, 2], qx, qy, qz, r, True, occ, start, S, origin, bucket,
+                          bdims) >= r
 
 
 @kernel
@@ -967,11 +974,8 @@ def _start_clearance(p0, hist, L, r, occ, start, S, origin, bucket, bdims):  # p
     pts = np.empty((1, 3))
     if _chain(line, n, L, 1, pts) < 1:
         return d
-    ax, ay, az = pts[0, 0], pts[0, 1], pts[0, 2]
-    dx, dy, dz = p0[0] - ax, p0[1] - ay, p0[2] - az
-    e, f = _LINK_END, 1.0 - _LINK_END
-    return min(d, segment_distance_below(ax + e * dx, ay + e * dy, az + e * dz, ax + f * dx, ay + f * dy, az + f * dz,
-                                         r, False, occ, start, S, origin, bucket, bdims))
+    return min(d, _link_distance(pts[0, 0], pts[0, 1], pts[0, 2], p0[0], p0[1], p0[2], r, False, occ, start, S,
+                                 origin, bucket, bdims))
 
 
 def start_radius(smap: SensedMap, p0: NDArray[np.float64], hist: NDArray[np.float64], config: SearchConfig,
