@@ -754,3 +754,17 @@ def test_the_last_link_check_is_the_exact_distance_to_the_chord():
         assert clear == (d >= r), f"a point {d * 1e3:.2f} mm from the chord at {f:.2f} of it: clear={clear}"
         seen[clear] += 1
     assert min(seen.values()) > 100, seen
+
+
+@pytest.mark.parametrize("f", [0.09, 0.5, 0.91])
+def test_the_last_link_check_reaches_within_a_tenth_of_either_end(f):
+    """A point half the clearance beside the last link, at 9 % or 91 % of its length, is refused: the check
+    covers all but the ends (the tip, checked by the path's own samples, and a point the tip has passed),
+    as the samples it replaced did (the last 1/12 at either end); a check over a shorter part of the chord
+    (its middle half, say) would let a link through with a point within 3 cm of its inner tenth."""
+    from navstack.planner.proximity import point_index
+
+    a, b = np.array([-0.2, 0.0, 0.0]), np.zeros(3)
+    p = a + f * (b - a) + np.array([0.0, 0.5 * RB, 0.0])
+    assert not search_mod._last_link_clear(a[None], *b, RB, *point_index(_map(p[None])))
+    assert search_mod._last_link_clear(a[None], *b, RB, *point_index(_map((p + [0.0, 0.6 * RB, 0.0])[None])))
