@@ -57,15 +57,30 @@ def _shot(page) -> np.ndarray:
     return np.asarray(Image.open(BytesIO(page.screenshot())).convert("RGB"))
 
 
+def _differ(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The pixels that differ between two screenshots (more than 30 in the sum of their RGB differences)."""
+    return np.abs(a.astype(int) - b.astype(int)).sum(axis=-1) > 30
+
+
 def _changed(page, before: np.ndarray, timeout: float = 60.0) -> tuple[np.ndarray, np.ndarray]:
-    """The next screenshot that differs from ``before``, and the mask of the pixels that changed."""
+    """The screenshot once it has changed from ``before`` and settled, and the mask of the pixels that changed.
+
+    Settled: two screenshots half a second apart agree.  A change of several objects reaches the browser one
+    message per object, so the first screenshot that differs may show it half done (in one CI run the arm was
+    still drawn after the serpentine had gone, and its pixels were then counted as the structure's)."""
     deadline = time.monotonic() + timeout
     while True:
         now = _shot(page)
-        mask = np.abs(now.astype(int) - before.astype(int)).sum(axis=-1) > 30
-        if mask.sum() > 200 or time.monotonic() > deadline:
-            return now, mask
+        if _differ(now, before).sum() > 200 or time.monotonic() > deadline:
+            break
         time.sleep(0.5)
+    while time.monotonic() < deadline:
+        time.sleep(0.5)
+        later = _shot(page)
+        if _differ(later, now).sum() <= 20:
+            break
+        now = later
+    return now, _differ(now, before)
 
 
 @pytest.fixture(scope="module")
