@@ -55,6 +55,9 @@ __all__ = ["NO_PATH", "PARTIAL", "REACHED", "ArmShape", "Plan", "SearchConfig", 
 REACHED, PARTIAL, NO_PATH = 0, 1, 2
 
 _LINK_END = 1.0 / 12.0
+_CLOSED = -1.0
+_ABSENT = -2.0
+"""The search's ``best_g`` values of an expanded state and of a state not reached yet (costs are >= 0)."""
 """The fraction of the last link at either end that its clearance check leaves out: its ends are the tip (checked
 by the path's own samples) and a point the tip has passed (checked when it was the tip, and where the body
 already is); the check covers what its 11 samples once did, exactly (:func:`_last_link_clear`)."""
@@ -587,7 +590,7 @@ def _shot_pieces(node, k, kk, kap, nx, ny, nz, total, n_pc, goals, NP, NH, NK, N
 @numba.njit(cache=True)
 def _shot(node, k, g, goals, reach, kappa_max, ds, step, box_lo, box_hi, max_len, relax, r_start, w_turn, link,
           r_arm, rep, c_reach, sh, sh_d, line, chain_pts, occ, start, S, origin, bucket, bdims, free, fcell, fdims,
-          cell, hbin, dims, closed, best_g, hist, NP, NH, NK, NG, NPAR, NKAP, NDIR, NEND, NL, NTURN,
+          cell, hbin, dims, best_g, hist, NP, NH, NK, NG, NPAR, NKAP, NDIR, NEND, NL, NTURN,
           n_nodes):  # pragma: no cover - jitted
     """The goal shot from ``node`` (:func:`goal_shot` to goal ``k``), tested as a primitive is (the box,
     the potential and blocked samples ``ds`` [m] apart or less, the body every other sample and at the end)
@@ -609,7 +612,8 @@ def _shot(node, k, g, goals, reach, kappa_max, ds, step, box_lo, box_hi, max_len
     last = n_nodes + n_pc - 1
     key2 = _key(NP[last, 0], NP[last, 1], NP[last, 2], NH[last, 0], NH[last, 1], NH[last, 2], kk, origin, cell, hbin,
                 dims, goals.shape[0] + 1)
-    if key2 < 0 or key2 in closed:
+    seen = best_g.get(key2, _ABSENT) if key2 >= 0 else _CLOSED
+    if seen == _CLOSED:
         return -1
     distances_below(sh, n_sh, c_reach, sh_d, occ, start, S, origin, bucket, bdims)
     cost = 0.0
@@ -620,7 +624,7 @@ def _shot(node, k, g, goals, reach, kappa_max, ds, step, box_lo, box_hi, max_len
             return -1
         cost += total / n_sh * (1.0 + c)
     g2 = g + cost + w_turn * total * kap / kappa_max
-    if key2 in best_g and best_g[key2] <= g2:
+    if 0.0 <= seen <= g2:
         return -1
     for j in range(1, n_sh + 1):  # the body, the path behind each sample through the pieces before it
         if j % 2 == 0 or j == n_sh:
@@ -681,8 +685,8 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
     dims = np.empty(3, dtype=np.int64)
     for c in range(3):
         dims[c] = int(math.ceil((box_hi[c] - origin[c]) / cell)) + 1
+    # each state's key -> the cheapest cost to it so far, or _CLOSED once expanded (one lookup per successor)
     best_g = numba.typed.Dict.empty(key_type=numba.types.int64, value_type=numba.types.float64)
-    closed = numba.typed.Dict.empty(key_type=numba.types.int64, value_type=numba.types.boolean)
     NP[0] = p0
     NH[0] = h0
     NK[0] = k0
@@ -715,9 +719,9 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
         g = NG[node]
         key = _key(px, py, pz, hx, hy, hz, k, origin, cell, hbin, dims, n_goals + 1)
         if node > 0:
-            if key in closed:
+            if best_g.get(key, _ABSENT) == _CLOSED:
                 continue
-            closed[key] = True
+            best_g[key] = _CLOSED
             if use_arm and not _arm_clear(px, py, pz, NPAR[node], NP, NPAR, hist, link, arm_pts, flange, arm_reach,
                                           line, chain_pts, occ, start, S, origin, bucket, bdims):
                 continue  # the arm, carried with the flange, would meet a sensed surface
@@ -775,13 +779,14 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
             ty /= tn
             tz /= tn
             key2 = _key(qx, qy, qz, tx, ty, tz, kk, origin, cell, hbin, dims, n_goals + 1)
-            if key2 < 0 or key2 in closed:
+            seen = best_g.get(key2, _ABSENT) if key2 >= 0 else _CLOSED
+            if seen == _CLOSED:
                 continue
-            if key2 in best_g:  # reached already: at least as cheaply as this arc can be (its potential >= 0)?
+            if seen >= 0.0:  # reached already: at least as cheaply as this arc can be (its potential >= 0)?
                 floor = 0.0
                 for _ in range(j_last):
                     floor += ds * (1.0 + 0.0)  # the cost below with no potential: never more, in floats too
-                if best_g[key2] <= g + floor + w_turn * step * kap / kappa_max:
+                if seen <= g + floor + w_turn * step * kap / kappa_max:
                     continue
             distances_below(samp, n_samp, c_reach, samp_d, occ, start, S, origin, bucket, bdims)
             for j in range(1, j_last + 1):
@@ -795,7 +800,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
             if not ok:
                 continue
             g2 = g + cost + w_turn * step * kap / kappa_max
-            if key2 in best_g and best_g[key2] <= g2:
+            if 0.0 <= seen <= g2:
                 continue
             # the body, only for an arc whose end state is new or cheaper: the last link is a straight chord
             # behind the tip, inside the bends of the path (checked every other sample and at the end; the
@@ -838,7 +843,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
                 pz - goals[k, 2]) ** 2 <= 4.0 * step * step:
             q = _shot(node, k, g, goals, reach, kappa_max, step / n_samp, step, box_lo, box_hi, max_len, relax,
                       r_start, w_turn, link, r_arm, rep, c_reach, sh, sh_d, line, chain_pts, occ, start, S, origin,
-                      bucket, bdims, free, fcell, fdims, cell, hbin, dims, closed, best_g, hist, NP, NH, NK, NG, NPAR,
+                      bucket, bdims, free, fcell, fdims, cell, hbin, dims, best_g, hist, NP, NH, NK, NG, NPAR,
                       NKAP, NDIR, NEND, NL, NTURN, n_nodes)
             if q >= 0:
                 n_nodes = q + 1
