@@ -236,6 +236,13 @@ def distance_below(px, py, pz, r, occ, start, S, origin, bucket, dims):  # pragm
     return nearest_in(px, py, pz, r, start, S, origin, bucket, dims)
 
 
+@kernel(inline="always")
+def _quiet(x, y, z, occ, origin, bucket, dims):  # pragma: no cover - jitted
+    """Whether the mask shows no point within ``REACH`` buckets of the bucket holding (x, y, z)."""
+    return occ[_cell(x, origin, bucket, dims, 0), _cell(y, origin, bucket, dims, 1), _cell(z, origin, bucket, dims,
+                                                                                            2)] == 0
+
+
 @kernel
 def segment_distance_below(ax, ay, az, bx, by, bz, r, first, occ, start, S, origin, bucket,
                            dims):  # pragma: no cover - jitted
@@ -251,6 +258,10 @@ def segment_distance_below(ax, ay, az, bx, by, bz, r, first, occ, start, S, orig
     reach = m * bucket
     dx, dy, dz = bx - ax, by - ay, bz - az
     dd = dx * dx + dy * dy + dz * dz
+    if 0.25 * math.sqrt(dd) + r < REACH * bucket:  # each half's points within r lie within REACH buckets of its middle
+        if _quiet(ax + 0.25 * dx, ay + 0.25 * dy, az + 0.25 * dz, occ, origin, bucket, dims) and _quiet(
+                ax + 0.75 * dx, ay + 0.75 * dy, az + 0.75 * dz, occ, origin, bucket, dims):
+            return math.sqrt(r * r)  # none: what the scan would return
     h = 1.98 * math.sqrt(reach * reach - r * r)  # (2 sqrt(reach^2 - r^2), less 1 %)
     n = max(1, int(math.ceil(math.sqrt(dd) / h)))
     r2 = r * r
