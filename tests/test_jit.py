@@ -46,6 +46,7 @@ def test_a_kernel_that_allocates_is_refused_at_compile_time():
 def test_the_planners_hot_kernels_are_compiled_without_reference_counting():
     from navstack.planner import potential, proximity, search
 
-    for fn in (proximity.distances_below, proximity.segment_distance_below, proximity.distance_below,
-               search._body_clear, search._heuristic, potential.cost_at, potential._wave_settle):
+    for fn in (proximity.distances_below, proximity.segment_distance_below, proximity._quiet, proximity.distance_below,
+               search._body_clear, search._link_distance, search._last_link_clear, search._heuristic, potential.cost_at,
+               potential._wave_settle):
         assert fn.targetoptions.get("_nrt") is False, fn.__name__

@@ -258,12 +258,13 @@ def segment_distance_below(ax, ay, az, bx, by, bz, r, first, occ, start, S, orig
     reach = m * bucket
     dx, dy, dz = bx - ax, by - ay, bz - az
     dd = dx * dx + dy * dy + dz * dz
-    if 0.25 * math.sqrt(dd) + r < REACH * bucket:  # each half's points within r lie within REACH buckets of its middle
+    length = math.sqrt(dd)
+    if 0.25 * length + r < REACH * bucket:  # each half's points within r lie within REACH buckets of its middle
         if _quiet(ax + 0.25 * dx, ay + 0.25 * dy, az + 0.25 * dz, occ, origin, bucket, dims) and _quiet(
                 ax + 0.75 * dx, ay + 0.75 * dy, az + 0.75 * dz, occ, origin, bucket, dims):
             return math.sqrt(r * r)  # none: what the scan would return
     h = 1.98 * math.sqrt(reach * reach - r * r)  # (2 sqrt(reach^2 - r^2), less 1 %)
-    n = max(1, int(math.ceil(math.sqrt(dd) / h)))
+    n = max(1, int(math.ceil(length / h)))
     r2 = r * r
     best = r2
     for t in range(n + 1):

@@ -55,12 +55,12 @@ __all__ = ["NO_PATH", "PARTIAL", "REACHED", "ArmShape", "Plan", "SearchConfig", 
 REACHED, PARTIAL, NO_PATH = 0, 1, 2
 
 _LINK_END = 1.0 / 12.0
-_CLOSED = -1.0
-_ABSENT = -2.0
-"""The search's ``best_g`` values of an expanded state and of a state not reached yet (costs are >= 0)."""
 """The fraction of the last link at either end that its clearance check leaves out: its ends are the tip (checked
 by the path's own samples) and a point the tip has passed (checked when it was the tip, and where the body
 already is); the check covers what its 11 samples once did, exactly (:func:`_last_link_clear`)."""
+
+_CLOSED, _ABSENT = -1.0, -2.0
+"""The search's ``best_g`` values of an expanded state and of a state not reached yet (costs are >= 0)."""
 
 
 @dataclass(frozen=True)
