@@ -292,6 +292,42 @@ def test_a_hit_marks_free_space_up_to_the_backoff_and_adds_its_point():
     assert not smap.is_seen_free(O + 0.01 * X)  # nor the blind zone before the ray's start
 
 
+@pytest.mark.parametrize("axis", [0, 1, 2])
+@pytest.mark.parametrize("last", [False, True])
+def test_a_ray_in_a_face_layer_of_the_grid_marks_its_cells_there(axis, last):
+    """The first and the last layer of cells along each axis are cells like the others: a miss running inside
+    one, along the next axis, marks exactly the cells it crosses (none dropped as outside the grid)."""
+    smap = _map()
+    cell, dims = smap.config.free_cell, smap.free_dims
+    along = (axis + 1) % 3
+    origin = smap.origin + 0.5 * cell * np.ones(3)  # the middle of cell (0, 0, 0) ...
+    origin[axis] += (dims[axis] - 1) * cell if last else 0.0  # ... or of the last layer along ``axis``
+    origin[(axis + 2) % 3] += 2 * cell
+    direction = np.zeros(3)
+    direction[along] = 1.0
+    smap.update([origin], [direction], [0.0], [0.2], [False], [True])
+    expected = set(_cells_on(smap, origin, direction, 0.0, 0.2))
+    assert {c[axis] for c in expected} == {dims[axis] - 1 if last else 0}
+    assert _free_cells(smap) == expected
+
+
+@pytest.mark.parametrize("hit", [True, False])
+def test_each_axis_keeps_its_own_origin(hit):
+    """A box whose corner differs in x, y and z (the other tests' boxes start at 0 in all three): the seen-free
+    cells are the ones the ray crosses, each axis measured from its own origin."""
+    smap = SensedMap(np.array([-0.37, 0.11, 0.52]), np.array([0.3, 0.6, 1.0]), CFG)
+    assert len(set(smap.origin.tolist())) == 3
+    o, d = np.array([-0.2, 0.3, 0.7]), DIAG
+    smap.update([o], [d], [0.03], [0.33], [hit], [True])
+    end = 0.33 - CFG.hit_backoff if hit else 0.33
+    crossed = _cells_on(smap, o, d, 0.03, end)
+    assert _free_cells(smap) <= set(crossed)
+    assert {c for c, length in crossed.items() if length > 0.5 * CFG.free_cell + 1e-3} <= _free_cells(smap)
+    if hit:
+        np.testing.assert_allclose(smap.surface_points, [o + 0.33 * d], atol=1e-15)
+        assert smap.distance(o + 0.33 * d + [0.0, 0.0, 0.01]) == pytest.approx(0.01, abs=1e-12)
+
+
 def test_a_miss_marks_the_whole_ray_free_and_adds_nothing():
     smap = _map()
     smap.update([O], [X], [0.03], [0.4], [False], [True])
@@ -414,6 +450,23 @@ def test_shadows_go_once_a_ray_sees_their_cell_free():
     np.testing.assert_allclose(smap.surface_points, [O + 0.3 * X])  # the surface point stays
     smap.update([O], [X], [0.03], [0.3], [True], [True])  # and the shadow does not come back
     assert smap.n_points == 3
+
+
+@pytest.mark.parametrize("axis", [0, 1, 2])
+def test_a_shadow_outside_the_box_is_not_purged_by_a_cell_inside(axis):
+    """A shadow point just before the box's low face lies in no cell of the grid: a seen-free cell on the far
+    side of the grid (where an index of -1 would wrap to) does not purge it, and an update keeps it."""
+    smap = _map(PLAIN)
+    cell = smap.config.free_cell
+    p = smap.origin + (np.floor((O - smap.origin) / cell) + 0.5) * cell  # O's cell's centre ...
+    p[axis] = smap.origin[axis] - 0.5 * cell  # ... moved to cell index -1 along ``axis``
+    smap.add_points([p], shadow=True)
+    far = p.copy()
+    far[axis] = smap.origin[axis] + (smap.free_dims[axis] - 0.5) * cell  # the last layer, same cell otherwise
+    smap.mark_free(far, 0.2 * cell)
+    assert smap.is_seen_free(far) and not smap.is_seen_free(p)
+    smap.update([O], [X], [0.03], [0.2], [False], [True])  # a reading elsewhere: shadows purged after it
+    assert smap.n_points == 1
 
 
 def test_without_shadow_depths_hits_add_only_their_points():

@@ -239,3 +239,68 @@ def test_sets_closer_than_is_numpys_smallest_pairwise_distance_against_the_thres
                 assert sets_closer_than(a, b, r) == (d < r)
         else:
             assert not sets_closer_than(a, b, 1.0)  # an empty set is near nothing
+
+
+def _one_point_index(p):
+    """A map holding the one point ``p`` [m], and its snapshot for the kernels."""
+    smap = SensedMap([0.0, 0.0, 0.0], [0.8, 0.6, 0.6], MapConfig(margin=0.1))
+    smap.add_points(np.array([p]))
+    return smap, point_index(smap)
+
+
+def _bucket_of(x, index):
+    origin, bucket, dims = index[3], index[4], index[5]
+    return tuple(np.clip(np.floor((np.asarray(x) - origin) / bucket).astype(int), 0, dims - 1))
+
+
+def test_distances_below_finds_a_point_beyond_the_masks_reach():
+    """``r`` beyond ``REACH`` buckets: samples whose buckets the mask shows quiet may still have a point within
+    ``r``, so they are scanned all the same."""
+    from navstack.planner.proximity import distances_below
+
+    smap, index = _one_point_index([0.3, 0.3, 0.3])
+    bucket, origin = smap.config.bucket, index[3]
+    p_edge = np.array([origin[0] + 8 * bucket - 0.001, 0.3, 0.3])  # just before a bucket's right face
+    smap, index = _one_point_index(p_edge)
+    r = 0.1
+    xs = p_edge + np.outer([0.085, 0.09, 0.095], [1.0, 0.0, 0.0])  # 3 buckets on: quiet, but nearer than r
+    assert all(index[0][_bucket_of(x, index)] == 0 for x in xs) and r > REACH * bucket
+    out = np.empty(3)
+    distances_below(xs, 3, r, out, *index)
+    np.testing.assert_allclose(out, [0.085, 0.09, 0.095], atol=1e-12)
+    assert out.tolist() == [distance_below(*x, r, *index) for x in xs]
+
+
+def test_segment_distance_below_scans_a_sample_two_buckets_from_its_point():
+    """A neighbourhood of ``REACH`` buckets: a point two buckets from the sample's (the mask's first bit only, not
+    the adjacent one) lies within ``r`` and is found, for a segment of no length as for a short one."""
+    from navstack.planner.proximity import segment_distance_below
+
+    smap, index = _one_point_index([0.3, 0.3, 0.3])
+    bucket, origin = smap.config.bucket, index[3]
+    a = np.array([origin[0] + 8 * bucket - 0.001, 0.3, 0.3])  # just before a bucket's right face
+    q = a + [0.065, 0.0, 0.0]
+    smap, index = _one_point_index(q)
+    assert index[0][_bucket_of(a, index)] == 1  # within REACH buckets, not adjacent
+    r = 0.07
+    for b in (a, a + [0.0, 0.01, 0.0]):
+        want = float(_segment_distances(np.array([q]), a, b).min())
+        assert want < r
+        assert segment_distance_below(*a, *b, r, False, *index) == pytest.approx(want, abs=1e-12)
+
+
+@pytest.mark.parametrize("near_end", [0, 1])
+def test_segment_distance_below_finds_a_point_beside_either_half_alone(near_end):
+    """A 20 cm segment with a point beside one end only: the other half's middle is quiet, the early answer
+    (both halves quiet) is not taken, and the point's distance is found."""
+    from navstack.planner.proximity import segment_distance_below
+
+    a, b = np.array([0.2, 0.3, 0.3]), np.array([0.4, 0.3, 0.3])
+    q = (b if near_end else a) + [(-0.01 if near_end else 0.01), 0.015, 0.0]
+    smap, index = _one_point_index(q)
+    quiet_middle = a + (0.25 if near_end else 0.75) * (b - a)
+    assert index[0][_bucket_of(quiet_middle, index)] == 0
+    r = 0.02
+    assert 0.25 * 0.2 + r < REACH * smap.config.bucket  # the early answer's condition holds
+    assert segment_distance_below(*a, *b, r, False, *index) == pytest.approx(0.015, abs=1e-12)
+    assert segment_distance_below(*a, *b, r, True, *index) == pytest.approx(0.015, abs=1e-12)
