@@ -80,6 +80,28 @@ def test_cost_rate_profile_against_the_closed_form(seen):
         assert got == pytest.approx(_expected_rate(d, seen), abs=1e-9), f"d = {d}"
 
 
+def test_cost_rate_reads_the_seen_free_cell_of_each_point_in_every_layer_and_beyond_the_box():
+    """The unseen cost against the map's own lookup (:meth:`SensedMap.is_seen_free`), far from any surface: a box
+    whose corner differs in x, y and z, free balls over its faces (the first and last layers of every axis), and
+    points inside, on and beyond the box (beyond it nothing is seen, whatever the far side's cells hold)."""
+    smap = SensedMap([-0.37, 0.11, 0.52], [0.1, 0.5, 0.9], MapConfig(margin=0.05))
+    assert len(set(smap.origin.tolist())) == 3
+    lo = smap.origin
+    hi = smap.origin + smap.free_dims * smap.config.free_cell
+    rng = np.random.default_rng(5)
+    for t in range(18):
+        c = rng.uniform(lo, hi)
+        axis = t % 3
+        c[axis] = lo[axis] if t % 2 else hi[axis]  # a ball on a face: the first or the last layer along ``axis``
+        smap.mark_free(c, 0.1)
+    probes = rng.uniform(lo - 0.05, hi + 0.05, size=(3000, 3))
+    seen = np.array([smap.is_seen_free(p) for p in probes])
+    assert 300 < seen.sum() < 2700
+    rates = np.array([_rate(smap, p) for p in probes])
+    np.testing.assert_array_equal(rates == 0.0, seen)
+    np.testing.assert_array_equal(rates[~seen], REP.w_unseen)
+
+
 def test_cost_rate_landmarks():
     """The profile's shape: forbidden below r_block, w_repulse at r_block, zero by influence when seen,
     w_unseen_surface near a surface and w_unseen far from any when not seen."""
