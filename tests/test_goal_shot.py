@@ -81,6 +81,7 @@ def test_the_shot_is_the_circle_tangent_to_the_heading_through_the_goal():
 def test_no_shot_behind_the_heading_or_tighter_than_the_turning_limit():
     p = np.zeros(3)
     assert goal_shot(*p, *X, -0.05, 0.01, 0.0, KMAX)[4] == -1.0  # behind
+    assert goal_shot(*p, *X, -2.0, 0.01, 0.0, KMAX)[4] == -1.0  # far behind: a gentle arc, but not ahead
     assert goal_shot(*p, *X, 0.0, 0.05, 0.0, KMAX)[4] == -1.0  # beside: a half circle of radius 2.5 cm
     assert goal_shot(*p, *X, 0.05, 0.02, 0.0, KMAX)[4] == -1.0  # curvature 13.8 / m > 4 / m
     kap, *_, length = goal_shot(*p, *X, 0.08, 0.0, 0.0, KMAX)

@@ -768,3 +768,30 @@ def test_the_last_link_check_reaches_within_a_tenth_of_either_end(f):
     p = a + f * (b - a) + np.array([0.0, 0.5 * RB, 0.0])
     assert not search_mod._last_link_clear(a[None], *b, RB, *point_index(_map(p[None])))
     assert search_mod._last_link_clear(a[None], *b, RB, *point_index(_map((p + [0.0, 0.6 * RB, 0.0])[None])))
+
+
+def test_the_closed_sets_key_refuses_a_cell_outside_each_axis_and_is_one_to_one_inside():
+    """``search._key`` on a grid of unequal sides (4 x 2 x 3 cells): -1 for a cell beyond any face (each axis
+    against its own size), and distinct keys for distinct (cell, heading bin, goal index) inside."""
+    from navstack.planner.search import _key
+
+    origin, cell, hbin, dims, n_goals1 = np.array([0.1, -0.2, 0.3]), 0.1, 0.5, np.array([4, 2, 3]), 3
+    h = np.array([0.6, 0.0, 0.8])
+    for axis in range(3):
+        for idx in (-1, dims[axis]):
+            c = np.ones(3, dtype=int)
+            c[axis] = idx
+            p = origin + (c + 0.5) * cell
+            assert _key(*p, *h, 1, origin, cell, hbin, dims, n_goals1) == -1, (axis, idx)
+    rng = np.random.default_rng(0)
+    seen = {}
+    for _ in range(3000):
+        c = rng.integers(0, dims)
+        d = rng.normal(size=3)
+        d /= np.linalg.norm(d)
+        k = int(rng.integers(0, n_goals1))
+        key = _key(*(origin + (c + 0.5) * cell), *d, k, origin, cell, hbin, dims, n_goals1)
+        assert key >= 0
+        cls = (tuple(c), int((np.arctan2(d[1], d[0]) + np.pi) / hbin) % 13,
+               min(int((np.arcsin(np.clip(d[2], -1, 1)) + 0.5 * np.pi) / hbin), 7), k)
+        assert seen.setdefault(key, cls) == cls
