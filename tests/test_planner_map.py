@@ -311,23 +311,6 @@ def test_a_ray_in_a_face_layer_of_the_grid_marks_its_cells_there(axis, last):
     assert _free_cells(smap) == expected
 
 
-@pytest.mark.parametrize("hit", [True, False])
-def test_each_axis_keeps_its_own_origin(hit):
-    """A box whose corner differs in x, y and z (the other tests' boxes start at 0 in all three): the seen-free
-    cells are the ones the ray crosses, each axis measured from its own origin."""
-    smap = SensedMap(np.array([-0.37, 0.11, 0.52]), np.array([0.3, 0.6, 1.0]), CFG)
-    assert len(set(smap.origin.tolist())) == 3
-    o, d = np.array([-0.2, 0.3, 0.7]), DIAG
-    smap.update([o], [d], [0.03], [0.33], [hit], [True])
-    end = 0.33 - CFG.hit_backoff if hit else 0.33
-    crossed = _cells_on(smap, o, d, 0.03, end)
-    assert _free_cells(smap) <= set(crossed)
-    assert {c for c, length in crossed.items() if length > 0.5 * CFG.free_cell + 1e-3} <= _free_cells(smap)
-    if hit:
-        np.testing.assert_allclose(smap.surface_points, [o + 0.33 * d], atol=1e-15)
-        assert smap.distance(o + 0.33 * d + [0.0, 0.0, 0.01]) == pytest.approx(0.01, abs=1e-12)
-
-
 def test_a_miss_marks_the_whole_ray_free_and_adds_nothing():
     smap = _map()
     smap.update([O], [X], [0.03], [0.4], [False], [True])
@@ -335,17 +318,27 @@ def test_a_miss_marks_the_whole_ray_free_and_adds_nothing():
     assert _free_cells(smap) == set(_cells_on(smap, O, X, 0.03, 0.4))
 
 
+SKEWED = (np.array([-0.37, 0.11, 0.52]), np.array([0.3, 0.6, 1.0]), np.array([-0.2, 0.3, 0.7]))
+"""A box whose corner differs in x, y and z (``LO`` is 0 in all three: each axis must use its own origin), and
+a ray's origin in it."""
+
+
+@pytest.mark.parametrize("box", [(LO, HI, O), SKEWED], ids=["corner-at-0", "skewed-corner"])
 @pytest.mark.parametrize("hit", [True, False])
-def test_an_oblique_ray_marks_only_cells_it_crosses_and_every_cell_it_crosses_for_half_a_cell(hit):
-    smap = _map()
+def test_an_oblique_ray_marks_only_cells_it_crosses_and_every_cell_it_crosses_for_half_a_cell(hit, box):
+    lo, hi, o = box
+    smap = SensedMap(lo, hi, CFG)
     rng_ = 0.33
-    smap.update([O], [DIAG], [0.03], [rng_], [hit], [True])
+    smap.update([o], [DIAG], [0.03], [rng_], [hit], [True])
     end = rng_ - CFG.hit_backoff if hit else rng_
-    crossed = _cells_on(smap, O, DIAG, 0.03, end)
+    crossed = _cells_on(smap, o, DIAG, 0.03, end)
     free = _free_cells(smap)
     assert free <= set(crossed)
     # a sample every half cell cannot miss a cell the ray crosses for more than half a cell
     assert {c for c, length in crossed.items() if length > 0.5 * CFG.free_cell + 1e-3} <= free
+    if hit:  # the hit where the ray ends, a surface at its distance
+        np.testing.assert_allclose(smap.surface_points, [o + rng_ * DIAG], atol=1e-15)
+        assert smap.distance(o + rng_ * DIAG + [0.0, 0.0, 0.01]) == pytest.approx(0.01, abs=1e-12)
 
 
 def test_dropouts_and_uninformative_rays_change_nothing():

@@ -241,11 +241,21 @@ def test_sets_closer_than_is_numpys_smallest_pairwise_distance_against_the_thres
             assert not sets_closer_than(a, b, 1.0)  # an empty set is near nothing
 
 
+def _one_point_map() -> SensedMap:
+    return SensedMap([0.0, 0.0, 0.0], [0.8, 0.6, 0.6], MapConfig(margin=0.1))
+
+
 def _one_point_index(p):
     """A map holding the one point ``p`` [m], and its snapshot for the kernels."""
-    smap = SensedMap([0.0, 0.0, 0.0], [0.8, 0.6, 0.6], MapConfig(margin=0.1))
+    smap = _one_point_map()
     smap.add_points(np.array([p]))
     return smap, point_index(smap)
+
+
+def _before_a_bucket_face() -> np.ndarray:
+    """A point [m] of those maps a millimetre before the right face (+x) of its bucket."""
+    smap = _one_point_map()
+    return np.array([smap.origin[0] + 8 * smap.config.bucket - 0.001, 0.3, 0.3])
 
 
 def _bucket_of(x, index):
@@ -258,10 +268,9 @@ def test_distances_below_finds_a_point_beyond_the_masks_reach():
     ``r``, so they are scanned all the same."""
     from navstack.planner.proximity import distances_below
 
-    smap, index = _one_point_index([0.3, 0.3, 0.3])
-    bucket, origin = smap.config.bucket, index[3]
-    p_edge = np.array([origin[0] + 8 * bucket - 0.001, 0.3, 0.3])  # just before a bucket's right face
+    p_edge = _before_a_bucket_face()
     smap, index = _one_point_index(p_edge)
+    bucket = smap.config.bucket
     r = 0.1
     xs = p_edge + np.outer([0.085, 0.09, 0.095], [1.0, 0.0, 0.0])  # 3 buckets on: quiet, but nearer than r
     assert all(index[0][_bucket_of(x, index)] == 0 for x in xs) and r > REACH * bucket
@@ -276,9 +285,7 @@ def test_segment_distance_below_scans_a_sample_two_buckets_from_its_point():
     the adjacent one) lies within ``r`` and is found, for a segment of no length as for a short one."""
     from navstack.planner.proximity import segment_distance_below
 
-    smap, index = _one_point_index([0.3, 0.3, 0.3])
-    bucket, origin = smap.config.bucket, index[3]
-    a = np.array([origin[0] + 8 * bucket - 0.001, 0.3, 0.3])  # just before a bucket's right face
+    a = _before_a_bucket_face()
     q = a + [0.065, 0.0, 0.0]
     smap, index = _one_point_index(q)
     assert index[0][_bucket_of(a, index)] == 1  # within REACH buckets, not adjacent

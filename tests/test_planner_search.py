@@ -792,6 +792,7 @@ def test_the_closed_sets_key_refuses_a_cell_outside_each_axis_and_is_one_to_one_
         k = int(rng.integers(0, n_goals1))
         key = _key(*(origin + (c + 0.5) * cell), *d, k, origin, cell, hbin, dims, n_goals1)
         assert key >= 0
-        cls = (tuple(c), int((np.arctan2(d[1], d[0]) + np.pi) / hbin) % 13,
-               min(int((np.arcsin(np.clip(d[2], -1, 1)) + 0.5 * np.pi) / hbin), 7), k)
+        n_az, n_el = math.ceil(2.0 * math.pi / hbin), math.ceil(math.pi / hbin) + 1  # the heading bins
+        cls = (tuple(c), int((np.arctan2(d[1], d[0]) + np.pi) / hbin) % n_az,
+               min(int((np.arcsin(np.clip(d[2], -1, 1)) + 0.5 * np.pi) / hbin), n_el - 1), k)
         assert seen.setdefault(key, cls) == cls
