@@ -712,6 +712,8 @@ def test_add_points_without_update_accumulates_new_points():
     ("average", 0), ("average", 2.0),
     ("average", True), ("shadow_depths", [0.01]), ("shadow_depths", (0.01, -0.02)), ("shadow_depths", (True,)),
     ("forget_moved", 1), ("detect_motion", 0), ("motion_contradictions", 0), ("motion_window", 1.5),
+    ("sheet_radius", -0.01), ("sheet_radius", 0.05), ("sheet_radius", np.nan), ("sheet_line_ratio", 0.0),
+    ("sheet_line_ratio", 1.0), ("sheet_min_points", 0), ("sheet_min_points", 4.0),
 ])
 def test_map_config_rejects_bad_values_naming_the_field(name, value):
     with pytest.raises(ValueError, match=name):

@@ -364,7 +364,8 @@ class FieldPlanner:
                 self.follower = PlanFollower(fallback, self.config.steering, self.follower.v)
             elif self.config.escape.patience > 0:
                 # boxed in: hold still while the map may still change; what boxes the tip in may have moved (or
-                # still move) without the map having seen it often enough to sense it: the map forgets from now
+                # still move) without the map having seen it often enough to sense it: the map forgets while it
+                # waits (a static map again once a way on is found: the map's "Forgetting")
                 self._wait = Wait(self.time, self.map.forgotten, self.time)  # (what goes as forgetting begins counts)
                 if self.map.config.detect_motion:
                     self.map.begin_forgetting()
@@ -395,6 +396,7 @@ class FieldPlanner:
             self._wait = None
             self._replan()  # a way on, an escape back along the path, or boxed in again (waiting on)
             if self._wait is None:
+                self.map.end_forgetting()  # the wait is over: back to a static map until motion is sensed
                 return self.step_hold(0.0)
             self._wait.since = wait.since
         elif what == "here":
@@ -403,6 +405,7 @@ class FieldPlanner:
             self._planned_at, self._planned_version = self.time, self.map.version
             if plan.status != NO_PATH:  # a way on, or one to explore (the budget spent), as an escape's
                 self._wait = None
+                self.map.end_forgetting()
                 self.follower = PlanFollower(plan, cfg.steering, 0.0)
                 self.mode = "plan" if plan.status == REACHED else "explore"
                 return self.step_hold(0.0)
