@@ -89,6 +89,17 @@ def test_a_ray_through_a_face_it_crosses_counts_as_the_plain_rule(beside):
     np.testing.assert_array_equal(_removed(_forgetting(FACE_ON), FACE_ON, origin), named)
 
 
+def test_a_pass_within_the_base_radius_counts_whatever_the_point_lies_on():
+    """A point 8 mm off a rod towards the ray, passed 6 mm off (within ``sensed_clear_radius``), goes, though
+    the ray passes the line of its neighbours 12 mm off; the rod, passed 14 mm off, stays."""
+    p = np.array([0.305, Y0 + 0.008, 0.195])
+    pts = np.vstack([ROD, p])
+    origin = np.array([0.05, Y0 + 0.014, 0.195])
+    assert _named(pts, origin, X).sum() >= 5
+    removed = _removed(_forgetting(pts), pts, origin)
+    assert removed[-1] and not removed[:-1].any()
+
+
 def test_a_rod_is_kept_by_a_ray_beside_it_and_its_ends_by_one_beyond_them():
     """A rod along z seen from the side: a ray 2 cm beside it keeps it; a ray along z past its end, 2 cm off
     the rod's axis, sees the rod's points spread both ways across itself (a point, not a line): they count."""

@@ -894,6 +894,34 @@ def test_begin_forgetting_drops_what_forgetting_would_have_and_forgets_from_then
 def test_forget_moved_forgets_from_the_start():
     smap = _map(MapConfig(shadow_depths=(), forget_moved=True))
     assert smap.forgetting and smap.motion_sensed_at is None
+    smap.end_forgetting()  # not begun by begin_forgetting: no change
+    assert smap.forgetting
+
+
+def test_end_forgetting_ends_what_begin_forgetting_began_and_the_map_senses_motion_afresh():
+    """After :meth:`SensedMap.end_forgetting` a clean pass takes nothing (as before begin_forgetting) and
+    counts as a contradiction again; motion sensed by the map itself then is forgetting for good."""
+    cfg = MapConfig(shadow_depths=(), motion_contradictions=2, motion_window=3)
+    a, b = np.array([0.305, 0.205, 0.195]), np.array([0.305, 0.105, 0.195])
+    through = {tuple(p): ([p - 0.2 * X], [X], [0.03], [0.4], [False], [True]) for p in (a, b)}
+    smap = _map(cfg)
+    smap.add_points([a, b] * cfg.max_evidence)  # both established
+    smap.begin_forgetting()
+    smap.update(*through[tuple(a)])
+    assert smap.forgetting_for_a_while and smap.n_points == 2  # a lost one evidence of max_evidence
+    smap.end_forgetting()
+    assert not smap.forgetting and not smap.forgetting_for_a_while and smap.motion_sensed_at is None
+    for _ in range(cfg.max_evidence - 1):  # no pass takes anything now; a's latent evidence goes 5 -> 0
+        smap.update(*through[tuple(a)])
+    assert smap.n_points == 2 and smap.contradicted == 0  # a is no longer established: no contradiction
+    smap.update(*through[tuple(b)])
+    assert smap.contradicted == 1 and not smap.forgetting
+    smap.update(*through[tuple(b)])  # 2 in the window: motion, sensed by the map itself
+    assert smap.forgetting and smap.motion_sensed_at == smap.readings and not smap.forgetting_for_a_while
+    # what forgetting would have left of each since end_forgetting: a nothing (gone at once), b 4
+    np.testing.assert_allclose(smap.points, [b], atol=1e-12)
+    smap.end_forgetting()
+    assert smap.forgetting
 
 
 def _recorded_static_readings():

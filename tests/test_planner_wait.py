@@ -83,6 +83,8 @@ def test_once_the_map_forgets_the_face_it_was_stopped_by_it_goes_on(map_config):
     assert planner.mode == "wait" and not planner.stalled
     _step_until(planner, lambda p: p.mode != "wait", t_max=planner.time + 2.0)  # within a second of it
     assert not planner.stalled and planner.mode in ("plan", "explore")
+    # the forgetting the wait began ends with it (a map told that obstacles move forgets on)
+    assert planner.map.forgetting == map_config.forget_moved and not planner.map.forgetting_for_a_while
     _step_until(planner, lambda p: p.path.head[0] > 0.25, t_max=planner.time + 20.0)  # out through the face
     assert not planner.stalled
 

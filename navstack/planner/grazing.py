@@ -15,9 +15,12 @@ the ray crosses spreads there both ways (a door's face seen face-on); a surface 
 or an edge, projects to a line. When the projection is a line (its smaller spread below ``line_ratio`` times
 the larger, in standard deviations) and the ray passes more than ``across`` [m] from that line, the ray ran
 beside the surface, and its pass is not counted against the point. A point with fewer than ``min_points``
-neighbours (a sparsely sensed face, a lone hit) keeps the plain rule: the pass counts.
+neighbours (a sparsely sensed face, a lone hit) keeps the plain rule: the pass counts. The map asks only about
+passes in the cone's reach beyond ``across`` (its base radius, 1 cm once forgetting): a ray that passes a
+point closer than that counts whatever the point lies on, and before the map forgets (4 mm, no cone) no pass
+is tested, so a static world pays nothing for it.
 
-Cost: one scan of the 27 buckets around the point per pass that would otherwise count, O(points in them).
+Cost: one scan of the 27 buckets around the point per pass tested, O(points in them).
 """
 
 from __future__ import annotations
