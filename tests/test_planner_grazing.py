@@ -100,16 +100,20 @@ def test_a_pass_within_the_base_radius_counts_whatever_the_point_lies_on():
     assert removed[-1] and not removed[:-1].any()
 
 
-def test_a_rod_is_kept_by_a_ray_beside_it_and_its_ends_by_one_beyond_them():
-    """A rod along z seen from the side: a ray 2 cm beside it keeps it; a ray along z past its end, 2 cm off
-    the rod's axis, sees the rod's points spread both ways across itself (a point, not a line): they count."""
+def test_a_rod_is_kept_by_rays_beside_it_across_it_and_along_it():
+    """A rod along z: a ray along x 2 cm beside it (the rod a line across the ray), and a ray along z 2 cm beside
+    it (the rod a spot across the ray), keep it; a ray along z through it, 5 mm off its axis, takes what the
+    plain rule names.  Neighbours within 3.5 cm: the rod's end points have 4 (points 1 cm apart, one a voxel)."""
+    cfg = dataclasses.replace(CFG, sheet_radius=0.035)
     beside = np.array([0.05, Y0 + 0.02, 0.2])
     assert _named(ROD, beside, X).sum() >= 5
-    assert not _removed(_forgetting(ROD), ROD, beside).any()
-    below = np.array([0.305, Y0 + 0.02, -0.05])  # along +z, parallel to the rod
-    named = _named(ROD, below, Z)
-    assert named.sum() >= 5
-    np.testing.assert_array_equal(_removed(_forgetting(ROD), ROD, below, Z), named)
+    assert not _removed(_forgetting(ROD, cfg), ROD, beside).any()
+    for off, kept in ((0.02, True), (0.005, False)):
+        below = np.array([0.305, Y0 + off, -0.05])  # along +z, parallel to the rod
+        named = _named(ROD, below, Z)
+        assert named.sum() >= 5
+        removed = _removed(_forgetting(ROD, cfg), ROD, below, Z)
+        np.testing.assert_array_equal(removed, np.zeros_like(named) if kept else named)
 
 
 @pytest.mark.parametrize("n", [3, 4])
@@ -144,13 +148,16 @@ def _reference(P: np.ndarray, q: int, l_vec: np.ndarray, d: np.ndarray, across: 
     basis = np.linalg.svd(d[None, :])[2][1:]  # two orthonormal rows across d
     uv = (near - P[q]) @ basis.T
     centre = uv.mean(axis=0)
+    ray = -(l_vec @ basis.T) - centre  # the ray across itself, from the centroid
     values, vectors = np.linalg.eigh(np.cov(uv.T, bias=True))
     small, big = values
     if abs(big - 0.005**2) < 1e-12 or abs(small - cfg.sheet_line_ratio**2 * big) < 1e-12:
         return None
-    if big < 0.005**2 or small > cfg.sheet_line_ratio**2 * big:
+    if big < 0.005**2:
+        return None if abs(np.linalg.norm(ray) - across) < 1e-9 else bool(np.linalg.norm(ray) > across)
+    if small > cfg.sheet_line_ratio**2 * big:
         return False
-    off = abs((-(l_vec @ basis.T) - centre) @ vectors[:, 0])
+    off = abs(ray @ vectors[:, 0])
     return None if abs(off - across) < 1e-9 else bool(off > across)
 
 
@@ -178,7 +185,7 @@ def test_beside_a_line_matches_an_eigensolver_on_random_neighbourhoods():
         n = smap.n_points
         got = beside_a_line(q, *idx, *l_vec, *d, across, cfg.sheet_radius, cfg.sheet_min_points,
                             cfg.sheet_line_ratio, smap._P, smap._alive, smap._shadow, smap.head, smap._next,
-                            smap.bucket_dims)
+                            smap.bucket_dims, smap._mark, -2)
         assert n == len(P)
         want = _reference(P, q, l_vec, d, across, cfg)
         if want is not None:

@@ -396,7 +396,8 @@ class FieldPlanner:
             self._wait = None
             self._replan()  # a way on, an escape back along the path, or boxed in again (waiting on)
             if self._wait is None:
-                self.map.end_forgetting()  # the wait is over: back to a static map until motion is sensed
+                if not self.stalled:  # a way on, or an escape: back to a static map until motion is sensed
+                    self.map.end_forgetting()
                 return self.step_hold(0.0)
             self._wait.since = wait.since
         elif what == "here":

@@ -58,18 +58,18 @@ with its plane so that its rays run along the face sensed earlier from the side,
 1620 of a review world's trial (``edge_plate_channel``, seed 0: its readings replayed into a map that no wait turned
 forgetting on), and that map then lost the plate's edge within 200 readings (85 points near it, then 3). In the
 trial itself a wait had turned forgetting on at reading 671, with the same end: its cone erased the edge, and the
-body struck the plate (the README's margins paragraph). Two rules came of it. The forgetting a wait begins
-ends with the wait (:meth:`SensedMap.end_forgetting`, called by the planner once it has a way on): a static
-world is mapped as static again, and the map senses motion afresh. And a pass counts against a point only
-if it does not run beside the line the point's neighbours make, seen along the ray (``sheet_radius``,
-:mod:`navstack.planner.grazing`): rays running beside a plate seen edge-on, or a rod, do not erase it. On
-12 trials of that world (seeds 0-3, and 8 seeds of ``--count 8 --seed 77``) the two took it from 3 goals
-reached, 5 collisions and 4 stalls to 8 reached, 1 collision and 3 stalls (the first alone: 7 reached, 2
-collisions; the second alone, in a first form that tested closer passes too: 4 reached, 3 collisions). The
-grazing rule tests only passes beyond the base radius ``sensed_clear_radius`` (in the cone), so a map that
-does not forget pays nothing for it. It keeps only what was sensed densely enough: on the first trial's
-recorded readings the plate's edge still went (85 points near it, then 3), each of its last points alone
-within 3 cm, with no line to tell (``sheet_min_points``).
+body struck the plate (the README's margins paragraph). Two rules came of it. The forgetting a wait begins ends
+with the wait (:meth:`SensedMap.end_forgetting`, called by the planner once it has a way on): a static world is
+mapped as static again, and the map senses motion afresh. And a pass counts against a point only if it does not run
+beside the line the point's neighbours make, seen along the ray (``sheet_radius``,
+:mod:`navstack.planner.grazing`): rays running beside a plate seen edge-on, or a rod, do not erase it. On 12 trials
+of that world (seeds 0-3, and 8 seeds of ``--count 8 --seed 77``) the two took it from 3 goals reached, 5
+collisions and 4 stalls to 8 reached, 1 collision and 3 stalls (the first alone: 7 reached, 2 collisions; the
+second alone, in a first form that tested closer passes too: 4 reached, 3 collisions). The grazing rule tests only
+passes beyond the base radius ``sensed_clear_radius`` (in the cone), so a map that does not forget, or forgets from
+the start (``forget_moved``, no cone), pays nothing for it. It keeps only what was sensed densely enough: on the
+first trial's recorded readings the plate's edge still went (85 points near it, then 3), each of its last points
+alone within 3 cm, with no line to tell (``sheet_min_points``).
 
 Cost: one update per control step, O(rays x range / free_cell) cell writes; queries O(27 x
 points per bucket).  Every kernel is ``numba.njit``.  Sensing motion runs the clean-pass test on every
@@ -124,9 +124,10 @@ class MapConfig:
         sensed_clear_slope: once motion is sensed, the clean-pass radius grows by this much per metre along the
             ray (a cone, half the forward rings' 0.23 rad spacing): a tip that holds still, waiting for a door
             to open, sees the whole window clear, not only the lines its rays take.
-        sheet_radius: a clean pass is tested against the surface its point lies on, as this point's neighbours
-            within ``sheet_radius`` show it (:mod:`navstack.planner.grazing`): a ray that runs beside a plate seen
-            edge-on, or a rod, is no clean pass of it. 0: no test (every pass within the radius counts). At most
+        sheet_radius: a clean pass in the cone beyond ``sensed_clear_radius`` (once motion is sensed, or a wait
+            has begun forgetting) is tested against the surface its point lies on, as the point's neighbours within
+            ``sheet_radius`` show it (:mod:`navstack.planner.grazing`): a ray that runs beside a plate seen edge-on,
+            or a rod, is no clean pass of it. 0: no test (every pass within the radius counts). At most
             ``bucket``.
         sheet_min_points: fewer neighbours than this (the point itself counted) show no surface: the pass counts.
         sheet_line_ratio: the neighbours, seen along the ray, lie along a line when the smaller standard deviation
@@ -298,7 +299,7 @@ def _pass_bucket_sheet(i, j, k, ray, s0, s1, clear_r, slope, P, alive, evidence,
                 if d2 < r * r and not (  # beyond clear_r (in the cone), not beside a line of points
                         sheet_r > 0.0 and d2 >= clear_r * clear_r
                         and beside_a_line(q, i, j, k, lx, ly, lz, dx, dy, dz, clear_r, sheet_r, sheet_n, sheet_ratio, P,
-                                          alive, shadow, head, nxt, dims)):
+                                          alive, shadow, head, nxt, dims, mark, tag)):
                     if not forget:
                         if evidence[q] >= established and seen[q] != reading:
                             seen[q] = reading
