@@ -200,7 +200,8 @@ def test_the_plate_seen_edge_on_is_not_struck(seed):
     """``tests/data/edge_plate_channel.json`` (a reviewer's world: a 2 mm plate seen edge-on splits a 13.6 cm
     channel into two 6.7 cm gaps). Before the grazing rule and the end of a wait's forgetting, rays running
     beside the plate erased it once the map forgot, and the body struck it at both seeds (-5.8 and -0.6 mm);
-    now both reach the goal on the development machine. Asserted: neither touches it."""
+    now seed 0 stalls boxed in and seed 2 reaches the goal (the development machine). Asserted: neither
+    touches it."""
     from navstack.trial import run_trial
 
     world = Path(__file__).resolve().parent / "data" / "edge_plate_channel.json"
