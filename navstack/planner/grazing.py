@@ -57,8 +57,7 @@ def beside_a_line(q, i, j, k, lx, ly, lz, dx, dy, dz, across, radius, min_points
         ax, ay, az = dz, 0.0, -dx
     s = math.sqrt(ax * ax + ay * ay + az * az)
     ax, ay, az = ax / s, ay / s, az / s
-    axes = (ax, ay, az, dy * az - dz * ay, dz * ax - dx * az, dx * ay - dy * ax)
-    ax, ay, az, bx, by, bz = axes
+    bx, by, bz = dy * az - dz * ay, dz * ax - dx * az, dx * ay - dy * ax
     px, py, pz = P[q, 0], P[q, 1], P[q, 2]
     n = 0
     s1 = s2 = s11 = s12 = s22 = 0.0

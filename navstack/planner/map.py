@@ -174,11 +174,12 @@ class MapConfig:
         for name in ("forget_moved", "detect_motion"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"MapConfig.{name} must be a bool, got {getattr(self, name)!r}")
-        for name, v, ok in (("sheet_radius", self.sheet_radius, lambda x: 0 <= x <= self.bucket),
-                            ("sheet_line_ratio", self.sheet_line_ratio, lambda x: 0 < x < 1)):
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not ok(v):
-                raise ValueError(f"MapConfig.{name} must be a number in "
-                                 f"{'[0, bucket]' if name == 'sheet_radius' else '(0, 1)'}, got {v!r}")
+        v = self.sheet_radius
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 <= v <= self.bucket:
+            raise ValueError(f"MapConfig.sheet_radius must be a length in [0, bucket = {self.bucket}] [m], got {v!r}")
+        v = self.sheet_line_ratio
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 < v < 1:
+            raise ValueError(f"MapConfig.sheet_line_ratio must be a number in (0, 1), got {v!r}")
         for name in ("average", "initial_evidence", "max_evidence", "motion_contradictions",
                      "motion_window", "sheet_min_points"):
             v = getattr(self, name)
@@ -226,7 +227,7 @@ def nearest_distance(px, py, pz, r, P, alive, head, nxt, origin, bucket, dims): 
 
 @numba.njit(cache=True)
 def _pass_bucket(i, j, k, ray, s0, s1, clear_r, slope, P, alive, evidence, latent, mark, tag, head, nxt, forget,
-                 established, seen, reading):  # pragma: no cover - jitted
+                 established, seen, reading, shadow, dims, sheet):  # pragma: no cover - jitted
     """A clean pass of the ray ``ray = (ox, oy, oz, dx, dy, dz)`` between ``s0`` and ``s1`` through the live
     points of bucket (i, j, k) within ``clear_r + slope a`` of its line, ``a`` [m] along the ray.
 
@@ -234,53 +235,13 @@ def _pass_bucket(i, j, k, ray, s0, s1, clear_r, slope, P, alive, evidence, laten
     DDA visits a bucket up to 27 times); a point out of evidence is removed.  Otherwise the evidence stays,
     each point at ``established`` evidence counts as one contradiction, once per reading (``seen[q] ==
     reading`` once counted), and its ``latent`` evidence (what forgetting would have left) loses one, once
-    per ray.  Returns ``(removed, contradicted)``."""
+    per ray.  With ``sheet = (radius, min_points, line_ratio)``, a pass farther than ``clear_r`` from a point
+    (in the cone) does not count when it runs beside the line the point's neighbours make across the ray
+    (:func:`~navstack.planner.grazing.beside_a_line`); a closer pass always counts.  ``sheet=None``: every
+    pass counts, and numba compiles that case without the test (its branch pruned): a kernel holding the test,
+    even never reached, made every map update 3.2-3.7x slower (62 -> 200-228 us on the tests' recorded
+    ``truss_clutter`` readings).  Returns ``(removed, contradicted)``."""
     ox, oy, oz, dx, dy, dz = ray
-    removed = 0
-    contradicted = 0
-    q = head[i, j, k]
-    while q >= 0:
-        if alive[q]:
-            wx = P[q, 0] - ox
-            wy = P[q, 1] - oy
-            wz = P[q, 2] - oz
-            a = wx * dx + wy * dy + wz * dz
-            if s0 < a < s1:
-                lx = wx - a * dx
-                ly = wy - a * dy
-                lz = wz - a * dz
-                r = clear_r + slope * a
-                if lx * lx + ly * ly + lz * lz < r * r:
-                    if not forget:
-                        if evidence[q] >= established and seen[q] != reading:
-                            seen[q] = reading
-                            contradicted += 1
-                        if mark[q] != tag:
-                            mark[q] = tag
-                            latent[q] -= 1
-                    elif mark[q] != tag:
-                        mark[q] = tag
-                        evidence[q] -= 1
-                        if evidence[q] <= 0:
-                            alive[q] = False
-                            removed += 1
-        q = nxt[q]
-    return removed, contradicted
-
-
-@numba.njit(cache=True)
-def _pass_bucket_sheet(i, j, k, ray, s0, s1, clear_r, slope, P, alive, evidence, latent, mark, tag, head, nxt, forget,
-                      established, seen, reading, shadow, dims, sheet):  # pragma: no cover - jitted
-    """:func:`_pass_bucket`, but a pass farther than ``clear_r`` from a point (in the cone) does not count when it
-    runs beside the line the point's neighbours make across the ray (``sheet = (radius, min_points,
-    line_ratio)``, :func:`~navstack.planner.grazing.beside_a_line`); a closer pass always counts.
-
-    A kernel of its own, used only when the cone reaches beyond ``clear_r`` (:func:`_pass_along`): one kernel
-    with the test inside, even never reached, made every map update 3.2-3.7x slower (62 -> 200-228 us on the
-    recorded ``truss_clutter`` readings of the tests, forgetting off), and so did moving the shared counting
-    below into a helper, inlined or not; the loop is written out twice instead."""
-    ox, oy, oz, dx, dy, dz = ray
-    sheet_r, sheet_n, sheet_ratio = sheet
     removed = 0
     contradicted = 0
     q = head[i, j, k]
@@ -296,10 +257,12 @@ def _pass_bucket_sheet(i, j, k, ray, s0, s1, clear_r, slope, P, alive, evidence,
                 lz = wz - a * dz
                 r = clear_r + slope * a
                 d2 = lx * lx + ly * ly + lz * lz
-                if d2 < r * r and not (  # beyond clear_r (in the cone), not beside a line of points
-                        sheet_r > 0.0 and d2 >= clear_r * clear_r
-                        and beside_a_line(q, i, j, k, lx, ly, lz, dx, dy, dz, clear_r, sheet_r, sheet_n, sheet_ratio, P,
-                                          alive, shadow, head, nxt, dims, mark, tag)):
+                counts = d2 < r * r
+                if sheet is not None:  # pruned when None
+                    if counts and d2 >= clear_r * clear_r:  # in the cone beyond clear_r: not beside a line
+                        counts = not beside_a_line(q, i, j, k, lx, ly, lz, dx, dy, dz, clear_r, sheet[0], sheet[1],
+                                                   sheet[2], P, alive, shadow, head, nxt, dims, mark, tag)
+                if counts:
                     if not forget:
                         if evidence[q] >= established and seen[q] != reading:
                             seen[q] = reading
@@ -378,12 +341,13 @@ def _pass_along(ray, s0, s1, clear_r, slope, P, alive, evidence, latent, mark, t
                     if visit[a, b, cc] != tag:
                         visit[a, b, cc] = tag
                         if grazing:
-                            r, n = _pass_bucket_sheet(a, b, cc, ray, s0, s1, clear_r, slope, P, alive, evidence, latent,
-                                                      mark, tag, head, nxt, forget, established, seen, reading, shadow,
-                                                      dims, sheet)
+                            r, n = _pass_bucket(a, b, cc, ray, s0, s1, clear_r, slope, P, alive, evidence, latent,
+                                                mark, tag, head, nxt, forget, established, seen, reading, shadow, dims,
+                                                sheet)
                         else:
                             r, n = _pass_bucket(a, b, cc, ray, s0, s1, clear_r, slope, P, alive, evidence, latent,
-                                                mark, tag, head, nxt, forget, established, seen, reading)
+                                                mark, tag, head, nxt, forget, established, seen, reading, shadow, dims,
+                                                None)
                         removed += r
                         contradicted += n
         if tmax[c] > length:
