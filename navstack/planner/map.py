@@ -154,6 +154,7 @@ class MapConfig:
     sheet_radius: float = 0.03
     sheet_min_points: int = 4
     sheet_line_ratio: float = 0.25
+    motion_view_angle: float = math.radians(30.0)
 
     def __post_init__(self) -> None:
         for name in ("voxel", "bucket", "free_cell", "margin", "hit_backoff", "clear_radius", "clear_backoff",
@@ -177,6 +178,9 @@ class MapConfig:
         v = self.sheet_radius
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 <= v <= self.bucket:
             raise ValueError(f"MapConfig.sheet_radius must be a length in [0, bucket = {self.bucket}] [m], got {v!r}")
+        v = self.motion_view_angle
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 <= v <= math.pi:
+            raise ValueError(f"MapConfig.motion_view_angle must be an angle in [0, pi] [rad], got {v!r}")
         v = self.sheet_line_ratio
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 < v < 1:
             raise ValueError(f"MapConfig.sheet_line_ratio must be a number in (0, 1), got {v!r}")
@@ -227,7 +231,7 @@ def nearest_distance(px, py, pz, r, P, alive, head, nxt, origin, bucket, dims): 
 
 @numba.njit(cache=True)
 def _pass_bucket(i, j, k, ray, s0, s1, clear_r, slope, P, alive, evidence, latent, mark, tag, head, nxt, forget,
-                 established, seen, reading, shadow, dims, sheet):  # pragma: no cover - jitted
+                 established, seen, reading, shadow, dims, sheet, view, view_cos):  # pragma: no cover - jitted
     """A clean pass of the ray ``ray = (ox, oy, oz, dx, dy, dz)`` between ``s0`` and ``s1`` through the live
     points of bucket (i, j, k) within ``clear_r + slope a`` of its line, ``a`` [m] along the ray.
 
@@ -264,12 +268,14 @@ def _pass_bucket(i, j, k, ray, s0, s1, clear_r, slope, P, alive, evidence, laten
                                                    sheet[2], P, alive, shadow, head, nxt, dims, mark, tag)
                 if counts:
                     if not forget:
-                        if evidence[q] >= established and seen[q] != reading:
-                            seen[q] = reading
-                            contradicted += 1
                         if mark[q] != tag:
                             mark[q] = tag
                             latent[q] -= 1
+                        if evidence[q] >= established and latent[q] <= 0 and seen[q] != reading:
+                            vx, vy, vz = view[q, 0], view[q, 1], view[q, 2]
+                            if (vx == 0.0 and vy == 0.0 and vz == 0.0) or dx * vx + dy * vy + dz * vz >= view_cos:
+                                seen[q] = reading
+                                contradicted += 1
                     elif mark[q] != tag:
                         mark[q] = tag
                         evidence[q] -= 1
@@ -301,7 +307,7 @@ def _dda_start(p, d, idx, origin, bucket):  # pragma: no cover - jitted
 
 @numba.njit(cache=True)
 def _pass_along(ray, s0, s1, clear_r, slope, P, alive, evidence, latent, mark, tag, head, visit, nxt, origin, bucket,
-                dims, forget, established, seen, reading, shadow, sheet):  # pragma: no cover - jitted
+                dims, forget, established, seen, reading, shadow, sheet, view, view_cos):  # pragma: no cover - jitted
     """The clean pass of ``ray = (ox, oy, oz, dx, dy, dz)`` over [s0, s1] through the points within
     ``clear_r + slope a`` of it, ``a`` along the ray (:func:`_pass_bucket`).  A 3D DDA (Amanatides and Woo
     1987) walks the buckets the segment crosses; in each, the buckets that the box around the segment's part
@@ -343,11 +349,11 @@ def _pass_along(ray, s0, s1, clear_r, slope, P, alive, evidence, latent, mark, t
                         if grazing:
                             r, n = _pass_bucket(a, b, cc, ray, s0, s1, clear_r, slope, P, alive, evidence, latent,
                                                 mark, tag, head, nxt, forget, established, seen, reading, shadow, dims,
-                                                sheet)
+                                                sheet, view, view_cos)
                         else:
                             r, n = _pass_bucket(a, b, cc, ray, s0, s1, clear_r, slope, P, alive, evidence, latent,
                                                 mark, tag, head, nxt, forget, established, seen, reading, shadow, dims,
-                                                None)
+                                                None, view, view_cos)
                         removed += r
                         contradicted += n
         if tmax[c] > length:
@@ -385,7 +391,7 @@ def _free_along(ox, oy, oz, dx, dy, dz, s, e, free, forigin, fcell, fdims):  # p
 @numba.njit(cache=True)
 def _carve(origins, dirs, starts, ends, free, forigin, fcell, fdims, P, alive, evidence, latent, mark, tag0, head,
            visit, nxt, borigin, bucket, bdims, clear_r, slope, clear_back, forget, established,
-           seen, reading, shadow, sheet):  # pragma: no cover - jitted
+           seen, reading, shadow, sheet, view, view_cos):  # pragma: no cover - jitted
     """Mark the cells along each ray [start, end) seen free, and pass each ray's clear part (up to ``end -
     clear_back``) through the points it meets (:func:`_pass_along`: ``forget`` them, or count the
     contradicted ones; none with ``clear_r <= 0``).  Returns ``(removed, contradicted)``."""
@@ -400,7 +406,7 @@ def _carve(origins, dirs, starts, ends, free, forigin, fcell, fdims, P, alive, e
             continue
         n_removed, n_contradicted = _pass_along(ray, starts[r], e_clear, clear_r, slope, P, alive, evidence, latent,
                                                 mark, tag0 + r, head, visit, nxt, borigin, bucket, bdims, forget,
-                                                established, seen, reading, shadow, sheet)
+                                                established, seen, reading, shadow, sheet, view, view_cos)
         removed += n_removed
         contradicted += n_contradicted
     return removed, contradicted
@@ -411,8 +417,8 @@ def _reading_rays(origins, dirs, starts, ranges, hit, informative, hit_backoff, 
     """One reading's rays as :meth:`SensedMap.update` takes them apart: the informative rays with a finite
     range (``origins, dirs, starts, ends`` of each, ``end`` being ``hit_backoff`` [m] short of a hit), and the
     points to merge, the hits in ray order and then their shadows, depth by depth (``depths`` [m] behind
-    each hit); returns ``(o, d, st, ends, points, hits)``.  The same operations as numpy's on the masked arrays,
-    in the same order."""
+    each hit), and the hits' directions; returns ``(o, d, st, ends, points, hit_directions)``.  The same
+    operations as numpy's on the masked arrays, in the same order."""
     n = ranges.shape[0]
     use = np.empty(n, dtype=np.bool_)
     n_use = 0
@@ -426,6 +432,7 @@ def _reading_rays(origins, dirs, starts, ranges, hit, informative, hit_backoff, 
     st = np.empty(n_use)
     ends = np.empty(n_use)
     pts = np.empty((n_hit * (1 + depths.shape[0]), 3))
+    hd = np.empty((n_hit, 3))
     u = 0
     m = 0
     for r in range(n):
@@ -441,12 +448,13 @@ def _reading_rays(origins, dirs, starts, ranges, hit, informative, hit_backoff, 
             rm = ranges[r]
             for c in range(3):
                 pts[m, c] = origins[r, c] + rm * dirs[r, c]
+                hd[m, c] = dirs[r, c]
             for t in range(depths.shape[0]):
                 q = m + (t + 1) * n_hit
                 for c in range(3):
                     pts[q, c] = origins[r, c] + (rm + depths[t]) * dirs[r, c]
             m += 1
-    return o, d, st, ends, pts, n_hit
+    return o, d, st, ends, pts, hd
 
 
 @numba.njit(cache=True)
@@ -514,7 +522,7 @@ def _voxel_keys(pts, origin, voxel):  # pragma: no cover - jitted
 @numba.njit(cache=True)
 def _merge_points(first, pts, keys, n_plain, plain_voxels, shadow_voxels, P, count, evidence, latent, alive, nxt,
                   is_shadow, head, n, origin, bucket, bdims, free, free_cell, fdims, average, initial_evidence,
-                  max_evidence, changed, n_changed):  # pragma: no cover - jitted
+                  max_evidence, changed, n_changed, dirs, view):  # pragma: no cover - jitted
     """Merge ``pts[first:]`` (packed voxel ``keys``) into their voxels (:meth:`SensedMap.add_points`), in order,
     writing the points added or moved to ``changed[n_changed:]``: ``pts[:n_plain]`` are surface points (voxels
     ``plain_voxels``), the rest shadow points (``shadow_voxels``).
@@ -543,6 +551,9 @@ def _merge_points(first, pts, keys, n_plain, plain_voxels, shadow_voxels, P, cou
             sx = (px - P[idx, 0]) / c
             sy = (py - P[idx, 1]) / c
             sz = (pz - P[idx, 2]) / c
+            if t < dirs.shape[0]:  # the direction it was sensed from: the same running mean
+                for a in range(3):
+                    view[idx, a] += (dirs[t, a] - view[idx, a]) / c
             P[idx, 0] += sx
             P[idx, 1] += sy
             P[idx, 2] += sz
@@ -571,6 +582,8 @@ def _merge_points(first, pts, keys, n_plain, plain_voxels, shadow_voxels, P, cou
         evidence[idx] = initial_evidence
         latent[idx] = initial_evidence
         alive[idx] = True
+        for a in range(3):
+            view[idx, a] = dirs[t, a] if t < dirs.shape[0] else 0.0
         changed[n_changed, 0] = px
         changed[n_changed, 1] = py
         changed[n_changed, 2] = pz
@@ -584,6 +597,9 @@ def _rows3(a: ArrayLike) -> NDArray[np.float64]:
     if out.ndim != 2 or out.shape[1] != 3:
         raise ValueError(f"SensedMap.update: origins and directions must be (R, 3) arrays, got shape {out.shape}")
     return out
+
+
+_NO_DIRECTIONS = np.empty((0, 3))
 
 
 # ------------------------------------------------------------------------------------------ class
@@ -619,6 +635,8 @@ class SensedMap:
         self._alive = np.zeros(1024, dtype=np.bool_)
         self._next = np.full(1024, -1, dtype=np.int64)
         self._shadow = np.zeros(1024, dtype=np.bool_)
+        self._view = np.zeros((1024, 3))  # the mean direction a point was sensed from (0: added without one)
+        self._view_cos = math.cos(cfg.motion_view_angle)
         self._n = 0
         # packed voxel key -> slot (numba typed dicts), for the sensed points and the shadows
         self._voxels = _new_voxel_table()
@@ -682,7 +700,7 @@ class SensedMap:
     def _grow(self) -> None:
         cap = 2 * self._P.shape[0]
         for name, fill in (("_P", 0.0), ("_count", 0), ("_evidence", 0), ("_latent", 0), ("_mark", -1), ("_seen", -1),
-                           ("_alive", False), ("_next", -1), ("_shadow", False)):
+                           ("_alive", False), ("_next", -1), ("_shadow", False), ("_view", 0.0)):
             old = getattr(self, name)
             new = np.full((cap,) + old.shape[1:], fill, dtype=old.dtype)
             new[: self._n] = old[: self._n]
@@ -699,7 +717,7 @@ class SensedMap:
         pts = np.ascontiguousarray(np.asarray(pts, dtype=np.float64).reshape(-1, 3))
         self._merge(pts, 0 if shadow else pts.shape[0])
 
-    def _merge(self, pts: NDArray[np.float64], n_plain: int) -> None:
+    def _merge(self, pts: NDArray[np.float64], n_plain: int, dirs: NDArray[np.float64] = _NO_DIRECTIONS) -> None:
         """Merge ``pts`` (K, 3), contiguous, in order: the first ``n_plain`` as surface points, the rest as
         shadow points (one compiled pass; :meth:`add_points` on each part in turn does the same)."""
         cfg = self.config
@@ -715,7 +733,7 @@ class SensedMap:
                 done, pts, keys, n_plain, self._voxels, self._shadow_voxels, self._P, self._count, self._evidence,
                 self._latent, self._alive, self._next, self._shadow, self.head, self._n, self.origin, cfg.bucket,
                 self.bucket_dims, self.free, cfg.free_cell, self.free_dims, cfg.average, cfg.initial_evidence,
-                cfg.max_evidence, changed, n_changed)
+                cfg.max_evidence, changed, n_changed, dirs, self._view)
             if done == pts.shape[0]:
                 break
             self._grow()  # out of slots: double them, and go on from the point that needed one
@@ -739,7 +757,8 @@ class SensedMap:
         if any(a.shape[0] != rays[3].shape[0] for a in rays) or any(a.ndim != 1 for a in rays[2:]):
             raise ValueError("SensedMap.update: origins, directions (R, 3) and starts, ranges, hit, informative (R,) "
                              f"must agree, got shapes {[a.shape for a in rays]}")
-        o, d, st, ends, pts, n_hit = _reading_rays(*rays, cfg.hit_backoff, self._depths)
+        o, d, st, ends, pts, hit_dirs = _reading_rays(*rays, cfg.hit_backoff, self._depths)
+        n_hit = hit_dirs.shape[0]
         self.readings += 1
         passing = self.forgetting or cfg.detect_motion
         radius, slope = self._clean_pass()
@@ -747,14 +766,14 @@ class SensedMap:
             o, d, st, ends, self.free, self.origin, cfg.free_cell, self.free_dims, self._P, self._alive, self._evidence,
             self._latent, self._mark, self._rays, self.head, self._visit, self._next, self.origin, cfg.bucket,
             self.bucket_dims, radius if passing else 0.0, slope, cfg.clear_backoff, self.forgetting, cfg.max_evidence,
-            self._seen, self.readings, self._shadow, self._sheet)
+            self._seen, self.readings, self._shadow, self._sheet, self._view, self._view_cos)
         self._rays += o.shape[0]
         self._recent[self.readings % cfg.motion_window] = self.contradicted
         if not self.forgetting and self._recent.sum() >= cfg.motion_contradictions:
             removed += self._begin_forgetting()
         self._forgot(removed)
         if n_hit:  # the hits, then their shadows depth by depth, in one pass
-            self._merge(pts, n_hit)
+            self._merge(pts, n_hit, hit_dirs)
         if _purge_shadows(self._alive, self._shadow, self._n, self._P, self.free, self.origin, cfg.free_cell,
                           self.free_dims):
             self.version += 1
