@@ -715,6 +715,7 @@ def test_add_points_without_update_accumulates_new_points():
     ("sheet_radius", -0.01), ("sheet_radius", 0.05), ("sheet_radius", np.nan), ("sheet_line_ratio", 0.0),
     ("sheet_line_ratio", 1.0), ("sheet_min_points", 0), ("sheet_min_points", 4.0), ("motion_view_angle", -0.1),
     ("motion_view_angle", 3.2), ("motion_view_angle", np.nan), ("motion_view_angle", True),
+    ("motion_graze_angle", -0.1), ("motion_graze_angle", 1.6), ("motion_graze_angle", "10 deg"),
 ])
 def test_map_config_rejects_bad_values_naming_the_field(name, value):
     with pytest.raises(ValueError, match=name):

@@ -22,6 +22,12 @@ hit) keeps the plain rule: the pass counts. The map asks only about passes in th
 forgetting): a ray that passes a point closer than that counts whatever the point lies on, and a map that
 does not forget, or forgets from the start (``forget_moved``: 4 mm, no cone), tests no pass.
 
+The map's motion detector asks a second question of its own (:func:`along_a_plane`): does a ray run along the
+plane a point's neighbours make? A ray 1-4 mm off a plate's face, at a degree or so to it, passes within the
+detector's 4 mm of the face's sensed points (each uncertain by a millimetre or so), and says nothing about the
+plate: at less than ``MapConfig.motion_graze_angle`` (10 deg) to that plane its pass is no contradiction
+(:mod:`navstack.planner.map`, "False alarms").
+
 Cost: one scan of the 27 buckets around the point per pass tested, O(points in them).
 """
 
@@ -30,8 +36,9 @@ from __future__ import annotations
 import math
 
 import numba
+import numpy as np
 
-__all__ = ["beside_a_line"]
+__all__ = ["along_a_plane", "beside_a_line"]
 
 
 @numba.njit(cache=True)
@@ -100,3 +107,45 @@ def beside_a_line(q, i, j, k, lx, ly, lz, dx, dy, dz, across, radius, min_points
         e1, e2 = c12, big - c11
     s = math.sqrt(e1 * e1 + e2 * e2)
     return abs(r2 * e1 - r1 * e2) > across * s  # the ray's distance from the line, times |e| = s
+
+
+@numba.njit(cache=True)
+def along_a_plane(q, i, j, k, dx, dy, dz, sin_min, radius, min_points, plane_ratio, P, alive, shadow, head, nxt,
+                  dims):  # pragma: no cover - jitted
+    """Whether the ray along the unit ``(dx, dy, dz)`` runs along the plane that point ``q``'s neighbours make,
+    at less than ``asin(sin_min)`` to it: a plate's face seen edge-on, which a sensed point's millimetres of
+    error put within reach of a ray running just outside it.
+
+    The neighbours: live non-shadow points within ``radius`` [m] of ``q`` (in bucket ``(i, j, k)`` of a grid
+    ``dims`` whose buckets are at least ``radius`` wide), at least ``min_points`` of them (else False).  They
+    make a plane when their smallest spread (standard deviation, across the plane) is below ``plane_ratio``
+    times the middle one, and the middle one is 5 mm or more (not a rod or an edge).
+    """
+    px, py, pz = P[q, 0], P[q, 1], P[q, 2]
+    n = 0
+    s = np.zeros(3)
+    ss = np.zeros((3, 3))
+    r2 = radius * radius
+    for a in range(max(i - 1, 0), min(i + 2, dims[0])):
+        for b in range(max(j - 1, 0), min(j + 2, dims[1])):
+            for c in range(max(k - 1, 0), min(k + 2, dims[2])):
+                p = head[a, b, c]
+                while p >= 0:
+                    if alive[p] and not shadow[p]:
+                        v0, v1, v2 = P[p, 0] - px, P[p, 1] - py, P[p, 2] - pz
+                        if v0 * v0 + v1 * v1 + v2 * v2 < r2:
+                            n += 1
+                            v = (v0, v1, v2)
+                            for e in range(3):
+                                s[e] += v[e]
+                                for f in range(3):
+                                    ss[e, f] += v[e] * v[f]
+                    p = nxt[p]
+    if n < min_points:
+        return False
+    m = s / n
+    cov = ss / n - np.outer(m, m)
+    w, vec = np.linalg.eigh(cov)  # ascending
+    if w[1] < 0.005**2 or w[0] >= plane_ratio * plane_ratio * w[1]:
+        return False  # a rod, an edge or a spot; or a curved surface: no plane
+    return abs(dx * vec[0, 0] + dy * vec[1, 0] + dz * vec[2, 0]) < sin_min
