@@ -850,6 +850,51 @@ def test_the_direction_a_point_was_sensed_from_is_the_running_mean_of_its_hits()
     assert counts(_unit(120.0), smap) == 1
 
 
+def test_a_point_added_without_a_direction_takes_its_first_hits():
+    """A point added by :meth:`SensedMap.add_points` (no direction) and then hit along +x is sensed from +x, not
+    from half of it: a pass along +x counts once its latent evidence is used up, one along +y never."""
+    cfg = dataclasses.replace(DETECT, max_evidence=4)
+    p = np.array([0.305, 0.205, 0.195])
+    counted = {}
+    for name, d in (("along", X), ("across", Y)):
+        smap = _map(cfg)
+        smap.add_points([p])
+        for _ in range(cfg.max_evidence):
+            smap.update([p - 0.2 * X], [X], [0.03], [0.2], [True], [True])
+        counted[name] = []
+        for _ in range(cfg.max_evidence + 2):
+            smap.update([p - 0.2 * d], [d], [0.03], [0.4], [False], [True])
+            counted[name].append(smap.contradicted)
+    assert counted == {"along": [0] * (cfg.max_evidence - 1) + [1] * 3, "across": [0] * (cfg.max_evidence + 2)}
+
+
+def test_a_contradiction_is_judged_by_its_own_ray_among_dropped_and_open_ones():
+    """The candidates are judged after the rays, each by the direction of the ray that made it: in readings whose
+    first rays are dropped (not informative, or no finite range) and whose others run elsewhere, only the pass
+    from the direction the point was sensed from counts."""
+    smap = _map(DETECT)
+    p = np.array([0.305, 0.205, 0.195])
+    for _ in range(DETECT.max_evidence):
+        smap.update([p - 0.2 * X], [X], [0.03], [0.2], [True], [True])
+    across, along = Y, _unit(10.0)
+    counted = []
+    for _ in range(DETECT.max_evidence + 1):
+        origins = [p - 0.2 * X, p - 0.2 * X, p - 0.2 * across, p + np.array([0.0, 0.0, 0.1]) - 0.2 * X, p - 0.2 * along]
+        dirs = [X, X, across, X, along]
+        smap.update(origins, dirs, [0.03] * 5, [0.4, np.inf, 0.4, 0.4, 0.4], [False] * 5,
+                    [False, True, True, True, True])
+        counted.append(smap.contradicted)
+    assert counted[: DETECT.max_evidence // 2 - 1] == [0] * (DETECT.max_evidence // 2 - 1)  # two passes a reading
+    assert counted[-1] == 1 and not smap.forgetting
+    smap = _map(DETECT)  # the same without the pass from the sensing direction: never
+    for _ in range(DETECT.max_evidence):
+        smap.update([p - 0.2 * X], [X], [0.03], [0.2], [True], [True])
+    for _ in range(DETECT.max_evidence + 1):
+        smap.update([p - 0.2 * X, p - 0.2 * across], [X, across], [0.03] * 2, [np.inf, 0.4], [False] * 2,
+                    [True, True])
+        assert smap.contradicted == 0
+
+
 def test_motion_is_sensed_when_the_contradictions_in_the_window_reach_the_threshold():
     """``motion_contradictions`` within ``motion_window`` readings turn forgetting on from the next reading;
     fewer, spread wider than the window, do not; ``detect_motion=False`` never counts."""

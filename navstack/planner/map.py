@@ -33,25 +33,27 @@ keeps its *latent* evidence, what forgetting would have left it (one less per cl
 at ``initial_evidence`` by a hit once exhausted). A clean pass is a *contradiction* of an *established* point (at
 ``max_evidence``: hit again and again) once the passes have used its latent evidence up (forgetting from the start
 would have removed it), and only when the ray comes from within ``motion_view_angle`` (30 deg) of the direction the
-point was sensed from (the running mean of its hits' directions) and does not run along the plane the point's
-neighbours make (at less than ``motion_graze_angle``, 10 deg: :func:`~navstack.planner.grazing.along_a_plane`), each
-point once per reading (false alarms, below). When ``motion_contradictions`` of them fall within the last
-``motion_window`` readings (a surface seen for a while, and then seen through, again and again), that is motion: the
-map forgets from then on, for good; the latent evidence becomes the evidence, and the points forgetting would have
-removed go at once. Without it the points hit while the obstacle moved, before motion was sensed, stayed: in the
-tests' door world the trial failed on seeds 0-2 (3 of 5 reached with forgetting from the start, 0 of 5 without the
-latent evidence); with it all five ended exactly as with forgetting from the start (the same steps and clearance).
-Since the false-alarm conditions all five reach the goal (seeds 2 and 4 later), four with forgetting from the start.
-Once motion is sensed, a clean pass counts within ``sensed_clear_radius`` (1 cm) instead of ``clear_radius``: the
-tip's forward rays lie 2-7 cm apart where a door's face was, and at 4 mm most of the face stayed in the map for good
-(a review's sliding door: 191 stale points 16 s after it had gone; the planner stalled boxed in at 4 of 9 seeds, and
-reached the goal at all 9 with the wider radius), and the radius grows along the ray by ``sensed_clear_slope`` (0.12
-m per m): a tip that holds still in front of a window, waiting for its door to open, kept 326 of the door's points
-between its rays with a fixed 1 cm, and 29 with the cone (``sliding-door`` seed 653817592: reached after waiting,
-stalled before). The door world then differs from forgetting from the start (26.0 s against 25.9 s, both reached). A
-planner boxed in by what its map holds may also turn forgetting on (:meth:`SensedMap.begin_forgetting`): a door seen
-only while it moved is never established, so never contradicted; it ends once the planner has a way on again
-(below). No one tells the map whether the world holds moving obstacles (spec 2b).
+point was sensed from (the running mean of its hits' unit directions, shorter when they spread: then a ray must come
+closer to it, and a point hit alternately from 35 deg either side is contradicted by none) and does not run
+along the plane the point's neighbours make (at less than ``motion_graze_angle``, 10 deg:
+:func:`~navstack.planner.grazing.along_a_plane`), each point once per reading (false alarms, below). When
+``motion_contradictions`` of them fall within the last ``motion_window`` readings (a surface seen for a while, and
+then seen through, again and again), that is motion: the map forgets from then on, for good; the latent evidence
+becomes the evidence, and the points forgetting would have removed go at once. Without it the points hit while the
+obstacle moved, before motion was sensed, stayed: in the tests' door world the trial failed on seeds 0-2 (3 of 5
+reached with forgetting from the start, 0 of 5 without the latent evidence); with it all five ended exactly as with
+forgetting from the start (the same steps and clearance). Since the false-alarm conditions all five reach the goal
+(seeds 2 and 4 later), four with forgetting from the start. Once motion is sensed, a clean pass counts within
+``sensed_clear_radius`` (1 cm) instead of ``clear_radius``: the tip's forward rays lie 2-7 cm apart where a door's
+face was, and at 4 mm most of the face stayed in the map for good (a review's sliding door: 191 stale points 16 s
+after it had gone; the planner stalled boxed in at 4 of 9 seeds, and reached the goal at all 9 with the wider
+radius), and the radius grows along the ray by ``sensed_clear_slope`` (0.12 m per m): a tip that holds still in
+front of a window, waiting for its door to open, kept 326 of the door's points between its rays with a fixed 1 cm,
+and 29 with the cone (``sliding-door`` seed 653817592: reached after waiting, stalled before). The door world then
+differs from forgetting from the start (26.0 s against 25.9 s, both reached). A planner boxed in by what its map
+holds may also turn forgetting on (:meth:`SensedMap.begin_forgetting`): a door seen only while it moved is never
+established, so never contradicted; it ends once the planner has a way on again (below). No one tells the map
+whether the world holds moving obstacles (spec 2b).
 
 **False alarms.** Static worlds do contradict established points, where rays graze a surface (a sensed point
 is a running mean of hits, uncertain by millimetres along the direction it was sensed from, and inside a curved
@@ -158,7 +160,8 @@ class MapConfig:
             the direction the point was sensed from (the running mean of its hits' unit directions, shorter when
             they spread; a point added without a direction, by :meth:`SensedMap.add_points`, from any direction).
         motion_graze_angle: ... and not when its ray meets the plane of the point's neighbours (within
-            ``sheet_radius``, ``sheet_min_points`` of them, flat by ``sheet_line_ratio``) at less than this [rad]
+            ``sheet_radius``, ``sheet_min_points`` of them, flat by ``sheet_line_ratio``, and spread 5 mm or more
+            (standard deviation) in the plane both ways) at less than this [rad]
             (:func:`~navstack.planner.grazing.along_a_plane`; 0: no such test).
     """
 
@@ -454,8 +457,10 @@ def _carve(origins, dirs, starts, ends, free, forigin, fcell, fdims, P, alive, e
 def _judge(cand, n_cand, tag0, dirs, seen, reading, view, view_cos, graze_sin, sheet, P, alive, shadow, head, nxt,
            borigin, bucket, bdims):  # pragma: no cover - jitted
     """The reading's candidate contradictions ``cand[:n_cand[0]]`` (point, ray tag), left by :func:`_carve`: each
-    point counts once (``seen``), from a ray that does not run along the plane of its neighbours
-    (:func:`~navstack.planner.grazing.along_a_plane`, at less than ``asin(graze_sin)``).  Empties the list and
+    point counts once (``seen``), from a ray (``dirs[tag - tag0]``) whose dot product with ``view[q]``, the mean
+    direction the point was sensed from, is at least ``view_cos`` (any ray when it is zero: unknown), and that does
+    not run along the plane of its neighbours (:func:`~navstack.planner.grazing.along_a_plane`, at less than
+    ``asin(graze_sin)``).  Empties the list and
     returns how many count.  Apart from :func:`_carve`, called only when there are candidates: inside its loop
     the plane test made every update slower (68.6-69.6 against 61.2-64.3 us, the tests' recorded readings)."""
     contradicted = 0
@@ -618,8 +623,9 @@ def _merge_points(first, pts, keys, n_plain, plain_voxels, shadow_voxels, P, cou
             sy = (py - P[idx, 1]) / c
             sz = (pz - P[idx, 2]) / c
             if t < dirs.shape[0]:  # the direction it was sensed from: the same running mean
-                for a in range(3):
-                    view[idx, a] += (dirs[t, a] - view[idx, a]) / c
+                unknown = view[idx, 0] == 0.0 and view[idx, 1] == 0.0 and view[idx, 2] == 0.0
+                for a in range(3):  # (from this hit on, for a point added without a direction)
+                    view[idx, a] = dirs[t, a] if unknown else view[idx, a] + (dirs[t, a] - view[idx, a]) / c
             P[idx, 0] += sx
             P[idx, 1] += sy
             P[idx, 2] += sz
@@ -729,7 +735,8 @@ class SensedMap:
         self.readings = 0
         """Readings fused by :meth:`update` so far."""
         self.contradicted = 0
-        """Established points the last reading passed cleanly through (0 once forgetting: not counted)."""
+        """Established points the last reading contradicted (module docstring, "Sensing motion"; 0 once forgetting:
+        not counted)."""
         self._recent = np.zeros(cfg.motion_window, dtype=np.int64)  # contradictions of the last readings
         self.motion_sensed_at: int | None = None
         """The reading (1 = the first) whose contradictions turned forgetting on (None: not yet, or never)."""
