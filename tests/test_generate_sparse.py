@@ -1,4 +1,5 @@
-"""Families whose goals do not mark the way (``slot-rack``, ``sparse-truss``, ``bend-clutter``), the
+"""Families whose goals do not mark the way (``slot-rack``, ``sparse-truss``, ``bend-clutter``, ``fin-bank``,
+``rod-forest``), the
 ``dead-end`` family, and ``retract`` worlds.
 
 Each family's worlds pass :func:`check_world` with the user's 12 mm for every link (stored in
@@ -13,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from navstack.cli import main
 from navstack.generate import (
@@ -32,7 +34,7 @@ from navstack.world import Cylinder, load_world, save_world
 
 TIP, HEADING = robot_tip_start((0.0, 0.0, 0.3), PAPER_BASE_RPY)
 WORLDS = Path(__file__).resolve().parents[1] / "worlds"
-SPARSE = ("slot-rack", "sparse-truss", "bend-clutter")
+SPARSE = ("slot-rack", "sparse-truss", "bend-clutter", "fin-bank", "rod-forest")
 NEW = (*SPARSE, "dead-end")
 CASES = [(f, s, d) for f in NEW for s, d in ((0, 0.0), (1, 0.3), (2, 0.6), (3, 1.0), (4, 1.0))]
 
@@ -88,12 +90,17 @@ def test_slot_rack_goals_do_not_mark_the_slots(seed, difficulty):
     assert lateral > np.sin(np.radians(1.0))
 
 
-def test_slot_rack_orientations_and_kinds_vary():
-    worlds = [generate_world("slot-rack", s, 0.5).extra["generator"] for s in range(12)]
-    rolls = np.array([g["roll_deg"] for g in worlds]) % 180.0
+def assert_rolls_vary(rolls_deg: list[float]) -> None:
+    """Rolls about the approach line [deg]: some near horizontal, some near vertical, some oblique."""
+    rolls = np.array(rolls_deg) % 180.0
     near_horizontal = np.minimum(rolls, 180.0 - rolls) < 30.0
     near_vertical = np.abs(rolls - 90.0) < 30.0
     assert near_horizontal.any() and near_vertical.any() and (~near_horizontal & ~near_vertical).any()
+
+
+def test_slot_rack_orientations_and_kinds_vary():
+    worlds = [generate_world("slot-rack", s, 0.5).extra["generator"] for s in range(12)]
+    assert_rolls_vary([g["roll_deg"] for g in worlds])
     assert {g["kind"] for g in worlds} == {"pipes", "plates"}
     assert {np.sign(g["slot_offsets"][0]) for g in worlds} == {-1.0, 1.0}
 
@@ -104,6 +111,76 @@ def test_difficulty_narrows_slots_and_rows():
     assert max(min(g["slot_widths"]) for g in hard) < min(min(g["slot_widths"]) for g in easy)
     assert max(np.diff(g["row_positions"]).max() for g in hard) <= 0.45 + 1e-9
     assert min(np.diff(g["row_positions"]).min() for g in easy) >= 0.5 - 1e-9
+
+
+@pytest.mark.parametrize(("seed", "difficulty"), [(s, d) for s in range(3) for d in (0.0, 1.0)])
+def test_fin_bank_fins_are_thin_edge_on_and_block_the_line(seed, difficulty):
+    w = generate_world("fin-bank", seed, difficulty)
+    gen = w.extra["generator"]
+    n = gen["structure_obstacles"]
+    fins, cables = w.obstacles[:n], w.obstacles[n:]
+    assert gen["banks"] == 2 and len(w.goals) == 2 and len(cables) == gen["cables"]
+    assert all(isinstance(c, Cylinder) and 0.005 <= c.radius <= 0.01 for c in cables)
+    thin_lo, thin_hi = 0.003 - 0.0015 * difficulty, 0.008 - 0.004 * difficulty
+    normals = []
+    for f in fins:
+        R = Rotation.from_euler("xyz", f.rpy).as_matrix()
+        half = np.asarray(f.half_extents)
+        assert thin_lo / 2 - 1e-6 <= half[2] <= thin_hi / 2 + 1e-6  # thickness, along the box's z
+        assert 0.025 - 1e-6 <= half[0] <= 0.05 + 1e-6  # half depth along the line
+        assert abs(R[:, 0] @ HEADING) > 1 - 1e-6  # depth along the line: the tip meets the leading edge
+        assert abs(R[:, 2] @ HEADING) < 1e-6  # faces parallel to the line
+        normals.append(R[:, 2])
+    assert np.allclose(np.abs(np.array(normals) @ normals[0]), 1.0, atol=1e-6)  # all fins parallel
+    # the straight segment entry -> final comes within the tip's radius of a fin
+    entry, final = w.goal_positions
+    line = entry + np.linspace(0.0, 1.0, 500)[:, None] * (final - entry)
+    assert obstacle_distance(fins, line).min() < 0.025
+    # the channels near the line alternate sides; 0.12-0.15 m wide, narrower when harder
+    offsets = np.array(gen["channel_offsets"])
+    assert np.sign(offsets[1]) == -np.sign(offsets[0])
+    assert all(0.12 - 1e-9 <= c <= 0.153 - 0.03 * difficulty + 1e-9 for c in gen["channel_widths"])
+    # between the banks, free of fins: the S-curve's free length plus the straight 3-6 cm beyond each bank
+    x, depth = np.array(gen["bank_positions"]), np.array(gen["fin_half_depths"])
+    gap = x[1] - x[0] - depth.sum()
+    assert 0.36 - 0.1 * difficulty + 2 * 0.03 - 1e-9 <= gap <= 0.45 - 0.1 * difficulty + 2 * 0.06 + 1e-9
+
+
+def test_fin_bank_rolls_and_sides_vary():
+    worlds = [generate_world("fin-bank", s, 0.5).extra["generator"] for s in range(12)]
+    assert_rolls_vary([g["roll_deg"] for g in worlds])
+    assert {np.sign(g["channel_offsets"][0]) for g in worlds} == {-1.0, 1.0}
+
+
+@pytest.mark.parametrize(("seed", "difficulty"), [(s, d) for s in range(3) for d in (0.0, 1.0)])
+def test_rod_forest_rods_are_thin_parallel_and_block_the_line(seed, difficulty):
+    w = generate_world("rod-forest", seed, difficulty)
+    gen = w.extra["generator"]
+    assert len(w.goals) == 2 and gen["structure_obstacles"] == len(w.obstacles) == gen["rods"]
+    lo, hi = 0.006 - 0.002 * difficulty, 0.012 - 0.004 * difficulty
+    axes = []
+    for o in w.obstacles:
+        assert isinstance(o, Cylinder) and lo - 1e-4 <= o.radius <= hi + 1e-4
+        axes.append((o.p1 - o.p0) / np.linalg.norm(o.p1 - o.p0))
+    axes = np.array(axes)
+    assert np.allclose(np.abs(axes @ axes[0]), 1.0, atol=1e-4)  # all parallel ...
+    assert np.abs(axes @ HEADING).max() < 1e-4  # ... and across the approach
+    entry, final = w.goal_positions
+    line = entry + np.linspace(0.0, 1.0, 500)[:, None] * (final - entry)
+    assert obstacle_distance(w.obstacles, line).min() < 0.01  # a blocker on the straight line
+    # the way winds aside by what a 0.3 m turn radius allows at most
+    assert gen["lobe_height"] <= gen["lobe_length"] ** 2 / (2 * np.pi**2 * 0.3) + 1e-4
+    ref = reference_path(TIP, HEADING, gen["reference_via"])
+    aside = np.linalg.norm(np.cross(ref.points - TIP, HEADING), axis=1).max()
+    assert abs(aside - gen["lobe_height"]) < 0.005
+
+
+def test_rod_forest_grows_denser_and_thinner_with_difficulty():
+    assert_rolls_vary([generate_world("rod-forest", s, 0.5).extra["generator"]["roll_deg"] for s in range(12)])
+    easy = [generate_world("rod-forest", s, 0.0) for s in range(3)]
+    hard = [generate_world("rod-forest", s, 1.0) for s in range(3)]
+    assert max(len(w.obstacles) for w in easy) < min(len(w.obstacles) for w in hard)
+    assert max(o.radius for w in hard for o in w.obstacles) < max(o.radius for w in easy for o in w.obstacles)
 
 
 @pytest.mark.parametrize(("seed", "difficulty"), [(0, 0.0), (1, 0.5), (2, 1.0), (3, 1.0)])
@@ -227,7 +304,8 @@ def test_family_examples_in_worlds_are_regenerated_identically(tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.parametrize(("family", "seed", "difficulty"), [("slot-rack", 0, 0.5), ("slot-rack", 1, 1.0),
-                                                          ("sparse-truss", 1, 1.0), ("bend-clutter", 0, 1.0)])
+                                                          ("sparse-truss", 1, 1.0), ("bend-clutter", 0, 1.0),
+                                                          ("fin-bank", 0, 1.0), ("rod-forest", 0, 1.0)])
 def test_scripted_collides_on_the_goals_but_follows_the_reference_through(family, seed, difficulty):
     w = generate_world(family, seed, difficulty)
     blind = run_trial(w, planner="scripted")

@@ -141,7 +141,8 @@ def test_check_world_and_run_warn_but_do_not_refuse(tmp_path: Path, capsys):
 
 
 @pytest.mark.parametrize("family", ["truss", "cluttered-truss", "pipe-rack", "sphere-field", "slot-rack",
-                                    "sparse-truss", "bend-clutter", "dead-end"])
+                                    "sparse-truss", "bend-clutter", "dead-end", "fin-bank",
+                                    "rod-forest"])
 def test_no_generated_world_has_a_goal_that_cannot_be_reached_without_contact(family):
     """The generators' own checks should never let such a goal through (measured: 0 of 960 worlds, seeds
     0-39 at difficulty 0, 0.5 and 1); the hardest settings here, three seeds per family."""

@@ -279,21 +279,12 @@ def test_a_pass_along_a_plate_sensed_from_near_its_plane_is_no_contradiction():
     assert counted[-1] >= 1 and not smap.forgetting
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("seed", [0, 2, 1685456953])
-def test_the_plate_seen_edge_on_is_not_struck(seed, monkeypatch):
-    """``tests/data/edge_plate_channel.json`` (a reviewer's world: a 2 mm plate seen edge-on splits a 13.6 cm
-    channel into two 6.7 cm gaps). Before the grazing rule and the end of a wait's forgetting, rays running
-    beside the plate erased it once the map forgot, and the body struck it at seeds 0 and 2 (-5.8 and -0.6 mm).
-    At seed 1685456953 the map then sensed motion in this static world (rays along the plate's face, sensed
-    from the side) and forgot for good, and the body struck it (-19.6 mm); since a pass must use a point's
-    latent evidence up, come from about where it was sensed and not run along the plane of its neighbours
-    (:mod:`navstack.planner.map`, "False alarms"), it does not. Asserted: no seed touches the plate, and the map
-    never senses motion itself."""
+@pytest.fixture
+def motion_sensed(monkeypatch):
+    """The control steps at which a trial's map sensed motion itself (not a wait's forgetting), as recorded."""
     from navstack.planner.map import SensedMap
-    from navstack.trial import run_trial
 
-    sensed = []
+    sensed: list[int] = []
     update = SensedMap.update
 
     def recording(self, *args, **kwargs):
@@ -302,9 +293,39 @@ def test_the_plate_seen_edge_on_is_not_struck(seed, monkeypatch):
             sensed.append(self.motion_sensed_at)
 
     monkeypatch.setattr(SensedMap, "update", recording)
+    return sensed
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [0, 2, 1685456953])
+def test_the_plate_seen_edge_on_is_not_struck(seed, motion_sensed):
+    """``tests/data/edge_plate_channel.json`` (a reviewer's world: a 2 mm plate seen edge-on splits a 13.6 cm
+    channel into two 6.7 cm gaps). Before the grazing rule and the end of a wait's forgetting, rays running
+    beside the plate erased it once the map forgot, and the body struck it at seeds 0 and 2 (-5.8 and -0.6 mm).
+    At seed 1685456953 the map then sensed motion in this static world (rays along the plate's face, sensed
+    from the side) and forgot for good, and the body struck it (-19.6 mm); since a pass must use a point's
+    latent evidence up, come from about where it was sensed and not run along the plane of its neighbours
+    (:mod:`navstack.planner.map`, "False alarms"), it does not. Asserted: no seed touches the plate, and the map
+    never senses motion itself."""
+    from navstack.trial import run_trial
+
     world = Path(__file__).resolve().parent / "data" / "edge_plate_channel.json"
     r = run_trial(world, seed=seed)
     print(f"\nseed {seed}: {r.reason}, {r.steps} steps, min clearance {r.metrics['min_clearance'] * 1e3:.1f} mm")
     assert r.metrics["contacts"] == 0 and r.reason != "collision"
     assert r.metrics["min_clearance"] > 0.002
-    assert sensed == []
+    assert motion_sensed == []
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("seed", "difficulty"), [(1, 0.0), (2, 1.0)])
+def test_fins_met_edge_on_sense_no_motion(seed, difficulty, motion_sensed):
+    """A generated ``fin-bank`` world (static: thin fins whose faces run along the approach, met edge-on, rays
+    grazing their faces all the way through): reached without contact, and the map never senses motion."""
+    from navstack.generate import generate_world
+    from navstack.trial import run_trial
+
+    r = run_trial(generate_world("fin-bank", seed, difficulty), seed=seed)
+    print(f"\nfin-bank seed {seed} d {difficulty}: {r.reason}, min clearance {r.metrics['min_clearance'] * 1e3:.1f} mm")
+    assert r.success and r.metrics["contacts"] == 0
+    assert motion_sensed == []

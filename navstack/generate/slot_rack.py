@@ -51,7 +51,8 @@ from navstack.generate.sparse import (
     sparse_config,
 )
 
-__all__ = ["DESIGN_RADIUS", "family_slot_rack", "pipe_row", "plate_row"]
+__all__ = ["DESIGN_RADIUS", "Layout", "entry_range", "family_slot_rack", "path_offsets", "pipe_row", "plate_row",
+           "profile", "way_through", "Way"]
 
 ROW_EXTENT = 0.4
 """Half width [m] of every row across the line (pipes whose axis is within it; plates out to it)."""
@@ -106,12 +107,12 @@ def plate_row(centre: FloatArray, u: FloatArray, a: FloatArray, n: FloatArray, w
 # --------------------------------------------------------------------------- the reference profile
 
 
-def _s_curve(t: FloatArray) -> FloatArray:
+def s_curve(t: FloatArray) -> FloatArray:
     """0 -> 1 on t in [0, 1] as two parabolas (constant |second derivative| 4), flat at both ends."""
     return np.where(t <= 0.5, 2.0 * t * t, 1.0 - 2.0 * (1.0 - t) ** 2)
 
 
-def _entry_start(delta: float, reach: float, e: float) -> tuple[float, float]:
+def entry_start(delta: float, reach: float, e: float) -> tuple[float, float]:
     """Where (x [m], relative to the entry goal) an S-curve of height ``delta`` [m] ending at ``reach``
     must start to be ``e`` [m] high at the entry goal (x = 0), and its radius [m] (D^2 / (4 delta))."""
     f = e / delta
@@ -120,24 +121,24 @@ def _entry_start(delta: float, reach: float, e: float) -> tuple[float, float]:
     return reach - length, length**2 / (4.0 * delta)
 
 
-def _entry_range(delta: float, reach: float, standoff: float) -> tuple[float, float] | None:
+def entry_range(delta: float, reach: float, standoff: float) -> tuple[float, float] | None:
     """Entry offsets e [m] the entry S-curve of height ``delta`` may pass the entry goal with: at most
     :data:`ENTRY_MAX`, starting at least 0.06 m ahead of the tip, turning with :data:`DESIGN_RADIUS` at
     least; None when there are none."""
     longest = reach + standoff - 0.06
     t = 1.0 - reach / longest
-    e_hi = min(ENTRY_MAX, 0.999 * delta, float(delta * _s_curve(np.array(t))))
-    if e_hi <= 0.0 or _entry_start(delta, reach, e_hi)[1] < DESIGN_RADIUS:
+    e_hi = min(ENTRY_MAX, 0.999 * delta, float(delta * s_curve(np.array(t))))
+    if e_hi <= 0.0 or entry_start(delta, reach, e_hi)[1] < DESIGN_RADIUS:
         return None
     lo, hi = 0.0, e_hi
     for _ in range(40):
         mid = 0.5 * (lo + hi)
-        lo, hi = (lo, mid) if _entry_start(delta, reach, mid)[1] >= DESIGN_RADIUS else (mid, hi)
+        lo, hi = (lo, mid) if entry_start(delta, reach, mid)[1] >= DESIGN_RADIUS else (mid, hi)
     return hi, e_hi
 
 
 @dataclass
-class _Layout:
+class Layout:
     """The drawn rack in line coordinates: x along the line from the entry goal, y the slot offsets [m]."""
 
     kind: str
@@ -150,7 +151,7 @@ class _Layout:
     roll: float
 
 
-def _draw_layout(rng: np.random.Generator, difficulty: float) -> _Layout:
+def _draw_layout(rng: np.random.Generator, difficulty: float) -> Layout:
     n_rows = 3 if rng.random() < 0.15 + 0.6 * difficulty else 2
     gaps = rng.uniform(max(0.33, 0.5 - 0.2 * difficulty), 0.65 - 0.2 * difficulty, size=n_rows - 1)
     if n_rows == 3:
@@ -163,12 +164,12 @@ def _draw_layout(rng: np.random.Generator, difficulty: float) -> _Layout:
     xs = first + np.concatenate([[0.0], np.cumsum(gaps)])
     near = np.minimum(np.append(gaps, np.inf), np.insert(gaps, 0, np.inf))  # nearest neighbour row
     halves = np.clip(depths + rng.uniform(0.005, 0.025, size=n_rows), 0.02, np.maximum(0.02, (near - 0.25) / 2))
-    return _Layout(kind=kind, xs=xs, halves=halves, widths=widths, depths=depths,
+    return Layout(kind=kind, xs=xs, halves=halves, widths=widths, depths=depths,
                    standoff=float(rng.uniform(0.22, 0.32)), final=float(xs[-1] + rng.uniform(0.18, 0.25)),
                    roll=float(rng.uniform(0.0, np.pi)))
 
 
-def _offsets(rng: np.random.Generator, L: _Layout, band: FloatArray) -> FloatArray | None:
+def path_offsets(rng: np.random.Generator, L: Layout, band: FloatArray) -> FloatArray | None:
     """|p_k| [m]: the path's offset while crossing row k, drawn row by row within what the slot (the line
     blocked, the path inside its band) and the turn radius (entry, between rows, to the final goal) allow."""
     lb = 0.05 * L.widths + 0.017  # below this no slot both blocks the line and holds the path
@@ -182,7 +183,7 @@ def _offsets(rng: np.random.Generator, L: _Layout, band: FloatArray) -> FloatArr
         hi = ub[k]
         if k == 0:  # the largest entry shift that an early start (within ENTRY_MAX) still allows
             grid = np.linspace(lb[0], ub[0], 40)
-            ok = [d for d in grid if _entry_range(float(d), reach, L.standoff) is not None]
+            ok = [d for d in grid if entry_range(float(d), reach, L.standoff) is not None]
             hi = max(ok) if ok else -1.0
         else:
             hi = min(hi, caps[k - 1] - p[-1])
@@ -193,10 +194,10 @@ def _offsets(rng: np.random.Generator, L: _Layout, band: FloatArray) -> FloatArr
     return np.array(p)
 
 
-def _profile(L: _Layout, y: FloatArray, e: float, y_final: float) -> FloatArray:
+def profile(L: Layout, y: FloatArray, e: float, y_final: float) -> FloatArray:
     """Samples (x, y) [m] of the reference profile: entry S-curve, straight at y_k across each row,
     S-curves between rows, a parabola to ``y_final`` at the final goal."""
-    x_start, _ = _entry_start(abs(y[0]), L.xs[0] - L.halves[0], e)
+    x_start, _ = entry_start(abs(y[0]), L.xs[0] - L.halves[0], e)
     pieces = [(x_start, L.xs[0] - L.halves[0], 0.0, y[0], "s")]
     for k in range(len(L.xs)):
         pieces.append((L.xs[k] - L.halves[k], L.xs[k] + L.halves[k], y[k], y[k], "s"))
@@ -207,16 +208,56 @@ def _profile(L: _Layout, y: FloatArray, e: float, y_final: float) -> FloatArray:
     for x0, x1, y0, y1, shape in pieces:
         m = max(int(np.ceil((x1 - x0) / VIA_STEP)), 1)
         t = np.arange(m) / m
-        f = _s_curve(t) if shape == "s" else t * t  # "j": leaves y0 straight, arrives turning
+        f = s_curve(t) if shape == "s" else t * t  # "j": leaves y0 straight, arrives turning
         out.append(np.column_stack([x0 + t * (x1 - x0), y0 + f * (y1 - y0)]))
     out.append(np.array([[L.final, y_final]]))
     return np.concatenate(out)
 
 
+@dataclass
+class Way:
+    """The way through a rack's rows: the rows' frame (``a`` along them, ``n`` across, both across the
+    heading), the entry goal, each row's slot centre and the path's offset there (signed, along ``n``), the
+    entry offset ``e`` [m] and the reference via points (m, 3) [m]."""
+
+    a: FloatArray
+    n: FloatArray
+    entry: FloatArray
+    slots: FloatArray
+    offsets: FloatArray
+    e: float
+    via: FloatArray
+
+
+def way_through(rng: np.random.Generator, L: Layout, robot: RobotStart, cfg: CheckConfig) -> Way:
+    """The way through the rows of ``L`` (rolled ``L.roll`` about the heading): slots on alternating sides
+    (the first side random) whose band keeps the tip ``cfg.path_margin`` from their edges, and the profile
+    through them.  Rows with no room for the profile give offsets the checks reject (the next attempt
+    redraws)."""
+    u = HEADING
+    a, n = cross_axes(u, L.roll)
+    entry = TIP + L.standoff * u
+    band = L.widths / 2 - robot.serpentine_radius - cfg.path_margin  # |path - slot centre| allowed
+    side = 1.0 if rng.random() < 0.5 else -1.0
+    signs = side * (-1.0) ** np.arange(len(L.xs))
+    p = path_offsets(rng, L, band)
+    if p is None:  # no room for these rows: a candidate the checks reject (the next attempt redraws)
+        p = 0.05 * L.widths + 0.017
+    lo = np.maximum(L.widths / 2 - 0.02, p - 0.9 * band)
+    hi = np.maximum(lo, np.minimum(p + 0.9 * band, L.widths / 2 + 0.015))
+    slots = signs * rng.uniform(lo, hi)
+    e_lo, e_hi = entry_range(float(p[0]), float(L.xs[0] - L.halves[0]), L.standoff) or (ENTRY_MAX, ENTRY_MAX)
+    e = float(rng.uniform(e_lo, e_hi))
+    y_final = signs[-1] * rng.uniform(0.0, 0.012)
+    prof = profile(L, signs * p, e, y_final)
+    via = entry + prof[:, :1] * u + prof[:, 1:] * n
+    return Way(a, n, entry, slots, signs * p, e, via[np.linalg.norm(via - TIP, axis=1) > 0.05])
+
+
 # --------------------------------------------------------------------------- the family
 
 
-def _rows(rng: np.random.Generator, L: _Layout, slots: FloatArray, entry: FloatArray, u: FloatArray,
+def _rows(rng: np.random.Generator, L: Layout, slots: FloatArray, entry: FloatArray, u: FloatArray,
           a: FloatArray, n: FloatArray) -> tuple[list[dict[str, Any]], list[list[float]]]:
     """Obstacles of every row, and the windows of the plates (n centre, width, a low, a high, row)."""
     half_length = rng.uniform(0.45, 0.6)
@@ -268,32 +309,16 @@ def family_slot_rack(rng: np.random.Generator, difficulty: float, cfg: CheckConf
     """A slot rack (module docstring) ahead of the demo robot ``robot``."""
     cfg = sparse_config(cfg)
     L = _draw_layout(rng, difficulty)
-    u = HEADING
-    a, n = cross_axes(u, L.roll)
-    entry = TIP + L.standoff * u
-    band = L.widths / 2 - robot.serpentine_radius - cfg.path_margin  # |path - slot centre| allowed
-    side = 1.0 if rng.random() < 0.5 else -1.0
-    signs = side * (-1.0) ** np.arange(len(L.xs))
-    p = _offsets(rng, L, band)
-    if p is None:  # no room for these rows: a candidate the checks reject (the next attempt redraws)
-        p = 0.05 * L.widths + 0.017
-    lo = np.maximum(L.widths / 2 - 0.02, p - 0.9 * band)
-    hi = np.maximum(lo, np.minimum(p + 0.9 * band, L.widths / 2 + 0.015))
-    slots = signs * rng.uniform(lo, hi)
-    e_lo, e_hi = _entry_range(float(p[0]), float(L.xs[0] - L.halves[0]), L.standoff) or (ENTRY_MAX, ENTRY_MAX)
-    e = rng.uniform(e_lo, e_hi)
-    y_final = signs[-1] * rng.uniform(0.0, 0.012)
-    prof = _profile(L, signs * p, e, y_final)
-    via = entry + prof[:, :1] * u + prof[:, 1:] * n
-    via = via[np.linalg.norm(via - TIP, axis=1) > 0.05]
-    rows, windows = _rows(rng, L, slots, entry, u, a, n)
-    goals = np.array([entry, entry + L.final * u])
+    W = way_through(rng, L, robot, cfg)
+    slots, offsets, e, via = W.slots, W.offsets, W.e, W.via
+    rows, windows = _rows(rng, L, slots, W.entry, HEADING, W.a, W.n)
+    goals = np.array([W.entry, W.entry + L.final * HEADING])
     S = path_samples(robot, via, cfg)
-    spheres = _spheres(rng, difficulty, S, goals, rows, robot, cfg, entry, L.xs)
+    spheres = _spheres(rng, difficulty, S, goals, rows, robot, cfg, W.entry, L.xs)
     params = {
         "kind": L.kind, "rows": len(L.xs), "roll_deg": round(float(np.degrees(L.roll)), 3),
         "row_positions": [round(float(x), 4) for x in L.xs], "slot_widths": [round(float(w), 4) for w in L.widths],
-        "slot_offsets": [round(float(c), 4) for c in slots], "path_offsets": [round(float(v), 4) for v in signs * p],
+        "slot_offsets": [round(float(c), 4) for c in slots], "path_offsets": [round(float(v), 4) for v in offsets],
         "pipe_radii": [round(float(r), 4) for r in L.depths] if L.kind == "pipes" else [],
         "windows": windows, "entry_standoff": round(L.standoff, 4), "entry_offset": round(float(e), 4),
         "spheres": len(spheres),
