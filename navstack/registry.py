@@ -211,11 +211,11 @@ register_family("sliding-door", "a wall with a window, shut by a door behind it 
                 "navstack.generate.sliding_door:family_sliding_door", seed_id=8,
                 difficulty="window 0.2 -> 0.15 m, turn onto its axis up to 10 -> 25 deg, the door opens at 2-6 -> "
                            "8-12 s")
-register_family("fin-bank", "two banks of thin fins (3-8 mm plates) edge-on to the approach, any roll; the channel "
+register_family("fin-bank", "two banks of thin fins (1.5-8 mm plates) edge-on to the approach, any roll; the channel "
                 "near the line alternates off it; goals: entry and destination only",
                 "navstack.generate.fin_bank:family_fin_bank", seed_id=9,
-                difficulty="fins 3-8 -> 1.5-4 mm thick, 0.36-0.45 -> 0.26-0.35 m free between the banks, channel "
-                           "0.15 -> 0.12 m, 0-1 -> 2-3 cables, closer to the way")
+                difficulty="fins 3-8 -> 1.5-4 mm thick, an S-curve 0.36-0.45 -> 0.26-0.35 m long between the banks, "
+                           "channel 0.15 -> 0.12 m, 0-1 -> 2-3 cables, closer to the way")
 register_family("rod-forest", "thin parallel rods across the approach, any roll, filling all but a winding way "
                 "through; goals: entry and destination only",
                 "navstack.generate.rod_forest:family_rod_forest", seed_id=10,

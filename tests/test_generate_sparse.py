@@ -113,43 +113,72 @@ def test_difficulty_narrows_slots_and_rows():
     assert min(np.diff(g["row_positions"]).min() for g in easy) >= 0.5 - 1e-9
 
 
+def fin_frame(fin) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A fin box's half extents sorted from thin to long, and its axes in that order (columns) [m]."""
+    R = Rotation.from_euler("xyz", fin.rpy).as_matrix()
+    order = np.argsort(fin.half_extents)
+    return np.asarray(fin.half_extents)[order], R[:, order], fin.center
+
+
 @pytest.mark.parametrize(("seed", "difficulty"), [(s, d) for s in range(3) for d in (0.0, 1.0)])
 def test_fin_bank_fins_are_thin_edge_on_and_block_the_line(seed, difficulty):
     w = generate_world("fin-bank", seed, difficulty)
     gen = w.extra["generator"]
-    n = gen["structure_obstacles"]
-    fins, cables = w.obstacles[:n], w.obstacles[n:]
+    fins, cables = w.obstacles[: gen["structure_obstacles"]], w.obstacles[gen["structure_obstacles"]:]
     assert gen["banks"] == 2 and len(w.goals) == 2 and len(cables) == gen["cables"]
-    assert all(isinstance(c, Cylinder) and 0.005 <= c.radius <= 0.01 for c in cables)
-    thin_lo, thin_hi = 0.003 - 0.0015 * difficulty, 0.008 - 0.004 * difficulty
-    normals = []
-    for f in fins:
-        R = Rotation.from_euler("xyz", f.rpy).as_matrix()
-        half = np.asarray(f.half_extents)
-        assert thin_lo / 2 - 1e-6 <= half[2] <= thin_hi / 2 + 1e-6  # thickness, along the box's z
-        assert 0.025 - 1e-6 <= half[0] <= 0.05 + 1e-6  # half depth along the line
-        assert abs(R[:, 0] @ HEADING) > 1 - 1e-6  # depth along the line: the tip meets the leading edge
-        assert abs(R[:, 2] @ HEADING) < 1e-6  # faces parallel to the line
-        normals.append(R[:, 2])
-    assert np.allclose(np.abs(np.array(normals) @ normals[0]), 1.0, atol=1e-6)  # all fins parallel
-    # the straight segment entry -> final comes within the tip's radius of a fin
     entry, final = w.goal_positions
+    thin_lo, thin_hi = 0.003 - 0.0015 * difficulty, 0.008 - 0.004 * difficulty
+    normal = fin_frame(fins[0])[1][:, 0]
+    banks: dict[int, list[tuple[float, float]]] = {}  # bank -> (offset along the normal, thickness) per fin
+    leading = np.inf
+    for f in fins:
+        half, axes, centre = fin_frame(f)
+        assert thin_lo / 2 - 1e-6 <= half[0] <= thin_hi / 2 + 1e-6  # thin: 1.5-8 mm
+        assert 0.025 - 1e-6 <= half[1] <= 0.05 + 1e-6 and half[2] >= 0.45 - 1e-6  # 5-10 cm deep, >= 0.9 m long
+        assert abs(axes[:, 1] @ HEADING) > 1 - 1e-5  # the depth runs along the line: met edge-on
+        assert abs(abs(axes[:, 0] @ normal) - 1) < 1e-5  # all fins parallel
+        x = float((centre - entry) @ HEADING)
+        leading = min(leading, x - half[1])
+        banks.setdefault(int(x > 0.5 * (gen["bank_positions"][0] + gen["bank_positions"][1])), []).append(
+            (float((centre - entry) @ normal), 2 * half[0]))
+    assert 0.15 - 1e-6 <= leading <= 0.23 + 1e-6  # the entry goal stands before the first leading edges
+    # each bank's channels, measured between its fins, are all one width; one is centred where the params say,
+    # and those two lie on opposite sides of the line
+    sides = []
+    for k in (0, 1):
+        fin_at, thick = np.array(sorted(banks[k])).T
+        widths = np.diff(fin_at) - thick[0]
+        assert np.allclose(widths, gen["channel_widths"][k], atol=2e-4)
+        assert 0.12 - 1e-6 <= widths[0] <= 0.153 - 0.03 * difficulty + 1e-4
+        centres = 0.5 * (fin_at[1:] + fin_at[:-1])
+        near = int(np.argmin(np.abs(np.abs(centres) - abs(gen["channel_offsets"][k]))))
+        assert abs(abs(centres[near]) - abs(gen["channel_offsets"][k])) < 2e-4
+        sides.append(np.sign(centres[near]))
+        assert fin_at.min() < -0.2 and fin_at.max() > 0.2  # the bank reaches across the line both ways
+    assert sides[0] == -sides[1] != 0
+    # the straight segment entry -> final comes within the tip's radius of a fin
     line = entry + np.linspace(0.0, 1.0, 500)[:, None] * (final - entry)
     assert obstacle_distance(fins, line).min() < 0.025
-    # the channels near the line alternate sides; 0.12-0.15 m wide, narrower when harder
-    offsets = np.array(gen["channel_offsets"])
-    assert np.sign(offsets[1]) == -np.sign(offsets[0])
-    assert all(0.12 - 1e-9 <= c <= 0.153 - 0.03 * difficulty + 1e-9 for c in gen["channel_widths"])
-    # between the banks, free of fins: the S-curve's free length plus the straight 3-6 cm beyond each bank
+    # between the banks, free of fins: the S-curve's length plus the straight 3-6 cm beyond each bank
     x, depth = np.array(gen["bank_positions"]), np.array(gen["fin_half_depths"])
     gap = x[1] - x[0] - depth.sum()
     assert 0.36 - 0.1 * difficulty + 2 * 0.03 - 1e-9 <= gap <= 0.45 - 0.1 * difficulty + 2 * 0.06 + 1e-9
+    # cables: parallel to the fins' length, between the banks, clear of every fin by 5 mm
+    for c in cables:
+        assert isinstance(c, Cylinder) and 0.005 <= c.radius <= 0.01
+        along = (c.p1 - c.p0) / np.linalg.norm(c.p1 - c.p0)
+        assert abs(along @ HEADING) < 1e-4 and abs(along @ normal) < 1e-4
+        assert x[0] + depth[0] < (c.p0 - entry) @ HEADING < x[1] - depth[1]
+        axis = c.p0 + np.linspace(0.0, 1.0, 200)[:, None] * (c.p1 - c.p0)
+        assert obstacle_distance(fins, axis).min() - c.radius >= 0.005 - 1e-4
 
 
-def test_fin_bank_rolls_and_sides_vary():
+def test_fin_bank_rolls_sides_and_cables_vary():
     worlds = [generate_world("fin-bank", s, 0.5).extra["generator"] for s in range(12)]
     assert_rolls_vary([g["roll_deg"] for g in worlds])
     assert {np.sign(g["channel_offsets"][0]) for g in worlds} == {-1.0, 1.0}
+    assert {g["cables"] for g in worlds} == {1, 2}  # round(2 d) plus a coin toss
+    assert max(max(g["fin_thicknesses"]) for g in worlds) > 0.005
 
 
 @pytest.mark.parametrize(("seed", "difficulty"), [(s, d) for s in range(3) for d in (0.0, 1.0)])
@@ -166,8 +195,17 @@ def test_rod_forest_rods_are_thin_parallel_and_block_the_line(seed, difficulty):
     assert np.allclose(np.abs(axes @ axes[0]), 1.0, atol=1e-4)  # all parallel ...
     assert np.abs(axes @ HEADING).max() < 1e-4  # ... and across the approach
     entry, final = w.goal_positions
+    assert 0.82 - 1e-6 <= np.linalg.norm(final - entry) <= 0.98 + 1e-6  # the lobe and the straight after it
     line = entry + np.linspace(0.0, 1.0, 500)[:, None] * (final - entry)
-    assert obstacle_distance(w.obstacles, line).min() < 0.01  # a blocker on the straight line
+    blockers = w.obstacles[: gen["blockers"]]
+    assert 1 <= len(blockers) <= 3
+    assert all(obstacle_distance((b,), line).min() < 0.007 for b in blockers)  # each on the straight line
+    # the rods stand between the entry goal and 0.1 m before the destination, up to 0.3 m to either side
+    centres = np.array([(o.p0 + o.p1) / 2 for o in w.obstacles]) - entry
+    along = centres @ HEADING
+    assert along.min() >= -1e-6 and along.max() <= np.linalg.norm(final - entry) - 0.1 + 1e-6
+    across = centres @ np.array(gen["lobe_direction"])
+    assert np.abs(across).max() <= 0.3 + 1e-6 and across.min() < -0.15 and across.max() > 0.15
     # the way winds aside by what a 0.3 m turn radius allows at most
     assert gen["lobe_height"] <= gen["lobe_length"] ** 2 / (2 * np.pi**2 * 0.3) + 1e-4
     ref = reference_path(TIP, HEADING, gen["reference_via"])

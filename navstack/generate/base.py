@@ -215,13 +215,14 @@ def ball(rng: np.random.Generator, path: ReferencePath, dist: float, s_from: flo
 
 
 def place(rng: np.random.Generator, make: Callable[[], dict[str, Any]], count: int, guard: Guard,
-          tries: int = 25) -> list[dict[str, Any]]:
-    """Up to ``count`` obstacles from ``make()`` that ``guard`` accepts (``tries`` draws each)."""
+          tries: int = 25, ok: Callable[[dict[str, Any]], bool] | None = None) -> list[dict[str, Any]]:
+    """Up to ``count`` obstacles from ``make()`` that ``guard`` accepts, and ``ok`` if given (``tries`` draws
+    each)."""
     out = []
     for _ in range(count):
         for _ in range(tries):
             o = make()
-            if guard.clear(o):
+            if guard.clear(o) and (ok is None or ok(o)):
                 out.append(o)
                 guard.sets.append((surface_probe(o), 0.0))  # no overlap with what was already placed
                 break

@@ -9,8 +9,8 @@ rolled about the line by a random angle (fins vertical, horizontal or oblique). 
 (whose layout and reference profile this family shares, :mod:`navstack.generate.slot_rack`), the channel
 each bank offers near the line alternates from one side of it to the other, so the straight line comes
 within the tip's radius of a fin in every bank: going straight collides, and the way jogs sideways
-between the banks.  Up to three cables (radius 5-10 mm, across the way) hang between the banks beside the
-reference path.
+between the banks.  Up to three cables (radius 5-10 mm, 0.4-1 m long, parallel to the fins and so across the
+way) hang between the banks beside the reference path, at least 5 mm from every fin.
 
 Goals: only an entry goal 0.15-0.23 m before the first bank's leading edges and the final goal on the line
 0.18-0.28 m behind the last bank's trailing edges.
@@ -19,10 +19,11 @@ The path runs straight through each bank and 3-6 cm beyond its fins at either en
 channel on a curve would cut 12 mm into its fins).  A third bank does not fit the robot's reach: its arm
 would enter the first bank (the length rule of :mod:`navstack.generate`).
 
-Difficulty d (0..1): fins U(3 - 1.5 d, 8 - 4 d) mm thick (per bank); the free length between the banks
-drawn in [0.36 - 0.1 d, 0.45 - 0.1 d] m; channel width 0.15 - 0.03 d m (minus up to 5 mm, at least
-0.12 m); round(2 d) cables plus one on a coin toss, each with its surface 0.045 + (0.04 (1 - d) + 0.01) x
-U(0, 1) m from the tip's path (at least 20 mm from the tip's surface).  Units: metres, radians.
+Difficulty d (0..1): fins U(3 - 1.5 d, 8 - 4 d) mm thick (per bank); the S-curve between the banks drawn
+U(0.36 - 0.1 d, 0.45 - 0.1 d) m long (the fins 6-12 cm farther apart than that); channel width 0.15 - 0.03 d m
+(minus up to 5 mm; each bank's own within 3 mm of it, all in [0.12, 0.15] m); round(2 d) cables plus one
+on a coin toss, each with its surface 0.045 + (0.04 (1 - d) + 0.01) x U(0, 1) m from the tip's path (at
+least 20 mm from the tip's surface).  Units: metres, radians.
 """
 
 from __future__ import annotations
@@ -31,16 +32,16 @@ from typing import Any
 
 import numpy as np
 
-from navstack.generate.base import HEADING, Candidate, make_guard, place
-from navstack.generate.checks import CheckConfig, RobotStart, path_samples
-from navstack.generate.geometry import FloatArray
+from navstack.generate.base import HEADING, Candidate, Guard, make_guard, place
+from navstack.generate.checks import CheckConfig, RobotStart, Samples, path_samples
+from navstack.generate.geometry import FloatArray, cylinder_dict, obstacle_distance, segment_samples
 from navstack.generate.slot_rack import ROW_EXTENT, Layout, way_through
 from navstack.generate.sparse import (
     BLOCKED_DEPTH,
     SPARSE_CHECKS,
     arc_at,
     box_on_axes,
-    cable_between,
+    obstacles_of,
     sparse_config,
 )
 
@@ -76,6 +77,35 @@ def _draw_layout(rng: np.random.Generator, difficulty: float) -> Layout:
                   roll=float(rng.uniform(0.0, np.pi)))
 
 
+def _cables(rng: np.random.Generator, difficulty: float, L: Layout, S: Samples, fins: list[dict[str, Any]],
+            guard: Guard, a: FloatArray, entry: FloatArray, need: float) -> list[dict[str, Any]]:
+    """round(2 d) cables, plus one on a coin toss: radius 5-10 mm, 0.4-1 m long along the fins' length ``a``
+    (across the way, parallel to the fins), hung between the banks beside the reference path (``S``) in the
+    plane the way jogs in, their surface ``need`` + U(0, 0.04 (1 - d) + 0.01) [m] from the tip's path; a draw
+    that comes within 5 mm of a fin, or that ``guard`` refuses (the way's clearances), is drawn again (up to 25
+    times)."""
+    solid = obstacles_of(fins)
+    arcs = [arc_at(S.path, entry, HEADING, x) for x in L.xs]
+    idx = np.flatnonzero((S.path.arc >= arcs[0] + L.halves[0] + 0.03) & (S.path.arc <= arcs[1] - L.halves[1] - 0.03))
+    spread = 0.04 * (1.0 - difficulty) + 0.01
+    last = len(S.path.points) - 1
+
+    def cable() -> dict[str, Any]:
+        i = int(rng.choice(idx))
+        side = np.cross(S.path.points[min(i + 1, last)] - S.path.points[max(i - 1, 0)], a)
+        r = rng.uniform(0.005, 0.01)
+        dist = (need + rng.uniform(0.0, spread) + r) * (1.0 if rng.random() < 0.5 else -1.0)
+        c = S.path.points[i] + dist * side / np.linalg.norm(side) + rng.uniform(-0.1, 0.1) * a
+        half = rng.uniform(0.2, 0.5)
+        return cylinder_dict(c - half * a, c + half * a, r)
+
+    def off_the_fins(o: dict[str, Any]) -> bool:
+        axis = segment_samples(np.array([o["p0"]]), np.array([o["p1"]]), 0.01)
+        return bool(obstacle_distance(solid, axis).min() > o["radius"] + 0.005)
+
+    return place(rng, cable, int(round(2 * difficulty)) + int(rng.random() < 0.5), guard, ok=off_the_fins)
+
+
 def family_fin_bank(rng: np.random.Generator, difficulty: float, cfg: CheckConfig,
                     robot: RobotStart) -> Candidate:
     """A fin bank (module docstring) ahead of the demo robot ``robot``."""
@@ -92,17 +122,8 @@ def family_fin_bank(rng: np.random.Generator, difficulty: float, cfg: CheckConfi
                         float(thickness[k]), float(L.depths[k]), half_length)
     goals = np.array([entry, entry + L.final * u])
     S = path_samples(robot, via, cfg)
-    guard = make_guard([S], goals, robot, cfg)
-    arcs = [arc_at(S.path, entry, u, x) for x in L.xs]
-    spread = 0.04 * (1.0 - difficulty) + 0.01
-    need = robot.serpentine_radius + cfg.path_margin + 0.005
-
-    def cable() -> dict[str, Any]:
-        k = int(rng.integers(0, len(L.xs) - 1))
-        lo, hi = arcs[k] + L.halves[k] + 0.03, arcs[k + 1] - L.halves[k + 1] - 0.03
-        return cable_between(rng, S.path, lo, hi, need + rng.uniform(0.0, spread))
-
-    cables = place(rng, cable, int(round(2 * difficulty)) + int(rng.random() < 0.5), guard)
+    cables = _cables(rng, difficulty, L, S, fins, make_guard([S], goals, robot, cfg), a, entry,
+                     robot.serpentine_radius + cfg.path_margin + 0.005)
     params = {
         "banks": len(L.xs), "roll_deg": round(float(np.degrees(L.roll)), 3),
         "bank_positions": [round(float(x), 4) for x in L.xs],

@@ -51,8 +51,8 @@ from navstack.generate.sparse import (
     sparse_config,
 )
 
-__all__ = ["DESIGN_RADIUS", "Layout", "entry_range", "family_slot_rack", "path_offsets", "pipe_row", "plate_row",
-           "profile", "way_through", "Way"]
+__all__ = ["DESIGN_RADIUS", "ROW_EXTENT", "Layout", "Way", "entry_range", "entry_start", "family_slot_rack",
+           "path_offsets", "pipe_row", "plate_row", "profile", "s_curve", "way_through"]
 
 ROW_EXTENT = 0.4
 """Half width [m] of every row across the line (pipes whose axis is within it; plates out to it)."""

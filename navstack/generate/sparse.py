@@ -1,5 +1,5 @@
 """Shared by the families whose goals do not mark the way (``slot-rack``, ``sparse-truss``,
-``bend-clutter``, ``dead-end``).
+``bend-clutter``, ``dead-end``, ``fin-bank``, ``rod-forest``).
 
 Their worlds give only an entry point and a destination (or an inspection point and an exit); the way
 between them is proven by a hidden reference path through reference via points that each family
