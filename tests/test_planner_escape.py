@@ -48,17 +48,19 @@ def _curved_path() -> PathMemory:
     return path
 
 
-def _fake_plan(status: int) -> Plan:
+def _fake_plan(status: int, cost: float = 0.0) -> Plan:
     return Plan(points=np.zeros((1, 3)), tangents=np.array([X]), arc=np.zeros(1),
-                goal_index=np.zeros(1, dtype=np.int64), status=status, cost=0.0, expansions=1)
+                goal_index=np.zeros(1, dtype=np.int64), status=status, cost=cost, expansions=1)
 
 
 class FakeSearch:
-    """``plan_from`` that reaches the goals exactly from the states where ``ok(position, heading)``; records calls
-    (and checks that the arc length it is given is that of the state)."""
+    """``plan_from`` that reaches the goals exactly from the states where ``ok(position, heading)``, with the
+    plan cost ``cost(position)`` [m] (0 if not given); records calls (and checks that the arc length it is given
+    is that of the state)."""
 
-    def __init__(self, ok, path: PathMemory | None = None) -> None:
+    def __init__(self, ok, path: PathMemory | None = None, cost=None) -> None:
         self.ok = ok
+        self.cost = cost
         self.path = path
         self.calls: list[tuple[np.ndarray, np.ndarray]] = []
         self.arcs: list[float] = []
@@ -70,7 +72,7 @@ class FakeSearch:
             q, u = self.path.point_at(s)
             np.testing.assert_allclose(p, q, atol=1e-12)
             np.testing.assert_allclose(t, u, atol=1e-12)
-        return _fake_plan(REACHED if self.ok(p, t) else NO_PATH)
+        return _fake_plan(REACHED if self.ok(p, t) else NO_PATH, 0.0 if self.cost is None else self.cost(p))
 
 
 # ---------------------------------------------------------------------------- with a fake search
@@ -87,6 +89,25 @@ def test_the_nearest_candidate_with_a_way_on_is_the_branch_point():
     np.testing.assert_allclose(xs, 0.8 - CFG.min_back - CFG.step * np.arange(len(xs)), atol=1e-9)
     assert xs[-1] == pytest.approx(0.30)
     np.testing.assert_allclose(np.array(fake.arcs) - s0, xs, atol=1e-9)  # the arc length of each state
+
+
+def test_the_branch_point_has_the_least_retreat_plus_plan_cost():
+    """A way on from every candidate, but from x <= 0.32 (a retreat of 0.5 m or more) one that costs 0.2 m
+    against 1.0 m nearer the end: the totals are 0.05 + 1.0 ... 0.45 + 1.0, then 0.5 + 0.2 = 0.7 at x = 0.30,
+    the least; the scan stops before the first candidate whose retreat alone is 0.7 m (x = 0.10)."""
+    path = _straight_path(0.8)
+    fake = FakeSearch(lambda p, t: True, path, cost=lambda p: 0.2 if p[0] <= 0.32 else 1.0)
+    s, plan = find_branch_point(path, fake, CFG)
+    assert s - path.start_arc_length == pytest.approx(0.30, abs=1e-9) and plan.cost == 0.2
+    xs = np.array([p[0] for p, _ in fake.calls])
+    np.testing.assert_allclose(xs, 0.75 - CFG.step * np.arange(13), atol=1e-9)  # 0.75 ... 0.15, not 0.10
+
+
+def test_of_equal_totals_the_nearer_branch_point_is_kept():
+    path = _straight_path(0.8)
+    fake = FakeSearch(lambda p, t: True, path, cost=lambda p: p[0])  # retreat + cost = 0.8 everywhere
+    s, _ = find_branch_point(path, fake, CFG)
+    assert s - path.start_arc_length == pytest.approx(0.75, abs=1e-9)
 
 
 def test_the_default_configuration_looks_back_in_its_own_steps():
