@@ -15,7 +15,8 @@ sensing.  Here the field is descended along paths the tip can actually follow:
 4. **steering** (:mod:`navstack.planner.steering`): the command runs along the plan, slowing near
    surfaces, stopping at the plan's end;
 5. **escape** (:mod:`navstack.planner.escape`): when no path leads on, back out along the tip's own
-   path to the nearest point from which one does (reverse commands), and go on from there.
+   path (reverse commands) to the point from which one does with the least retreat plus plan cost, and go
+   on from there.
 
 It never reads obstacle geometry: its inputs are the start, the goals, the robot's own tip state
 and the filtered sensor readings (tests/test_isolation.py).  Units: metres, seconds.
