@@ -83,13 +83,17 @@ class EscapeConfig:
 
 
 def find_branch_point(path: PathMemory, plan_from: Callable[[NDArray, NDArray, float], Plan],
-                      config: EscapeConfig, before: float | None = None) -> tuple[float, Plan] | None:
+                      config: EscapeConfig, before: float | None = None,
+                      cost_floor: Callable[[NDArray], float] | None = None) -> tuple[float, Plan] | None:
     """The arc length behind the end of ``path`` (and at or before ``before``), but not behind the tip's
     start, from which ``plan_from`` finds a complete way on (a plan through every goal) with the least
     retreat (from the end of ``path``) plus plan cost [m]; of totals within :data:`TIE`, the nearer one.
 
     ``plan_from(position, heading, s)`` searches from the path's state at arc length ``s``; returns
-    ``(s, plan)`` or None.
+    ``(s, plan)`` or None.  ``cost_floor(position)``, if given, is a lower bound of the cost of any plan from
+    ``position`` [m] (the search's costs are never less than the path's length): a candidate whose retreat
+    plus that bound cannot beat the best total so far is not searched (the answer is the same, found with
+    fewer searches).
     """
     first = path.start_arc_length
     end = path.end_arc_length if before is None else min(path.end_arc_length, before + config.min_back)
@@ -102,8 +106,11 @@ def find_branch_point(path: PathMemory, plan_from: Callable[[NDArray, NDArray, f
         if retreat >= best_total:
             break  # no plan from farther back makes up for the longer retreat (a plan's cost is >= 0)
         p, t = path.point_at(s)
-        plan = plan_from(p, t, s)
-        if plan.status == REACHED and retreat + plan.cost < best_total - TIE:
+        if best is not None and cost_floor is not None and retreat + cost_floor(p) >= best_total - TIE:
+            plan = None  # could not beat the best total: not searched
+        else:
+            plan = plan_from(p, t, s)
+        if plan is not None and plan.status == REACHED and retreat + plan.cost < best_total - TIE:
             best, best_total = (s, plan), retreat + plan.cost
         if s <= first:
             break

@@ -272,6 +272,17 @@ class FieldPlanner:
         s = np.append(np.arange(max(end - length, 0.0), end - 0.5 * spacing, spacing), end)
         return self.path.points_at(s)
 
+    def _cost_floor(self, p: NDArray[np.float64], k: int) -> float:
+        """A lower bound [m] of the cost of any plan from ``p`` through the goals from ``k`` on: a plan's cost is
+        at least its length, which passes within each goal's tolerance of it, in order."""
+        k = self._passed(p, k)
+        if k >= len(self.goals):
+            return 0.0
+        g, tol = self.goals[k:], self.tolerances[k:]
+        legs = np.linalg.norm(np.diff(np.vstack([p, g]), axis=0), axis=1)
+        slack = tol + np.concatenate([[0.0], tol[:-1]])  # the first leg starts at p itself
+        return float(np.maximum(legs - slack, 0.0).sum())
+
     def _passed(self, p: NDArray[np.float64], k: int) -> int:
         """Goals from ``k`` on that the command ``p`` is within reach of (already there)."""
         reach = self.config.search.goal_fraction * self.tolerances
@@ -359,7 +370,8 @@ class FieldPlanner:
         if self._last_branch is not None and limit - self._last_branch < 0.3:
             limit = self._last_branch - self.config.escape.step
         found = find_branch_point(self.path, lambda p, h, at: self._plan_from(p, h, self.command_goal, at),
-                                  self.config.escape, before=limit)
+                                  self.config.escape, before=limit,
+                                  cost_floor=lambda p: self._cost_floor(p, self.command_goal))
         if found is None:
             if fallback is not None:
                 self.follower = PlanFollower(fallback, self.config.steering, self.follower.v)
