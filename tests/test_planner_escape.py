@@ -104,23 +104,26 @@ def test_the_branch_point_has_the_least_retreat_plus_plan_cost():
 
 
 def test_a_cost_floor_spares_searches_but_not_the_answer():
-    """Plans cost 1.0 m from x > 0.32 and 0.2 m from x <= 0.32, and never less than the floor 0.6 - x (a goal
-    beyond the start, say): with the floor, the candidates whose retreat plus floor cannot beat the best total
-    are not searched; the branch point is the same."""
+    """Plans cost 1.0 m from x > 0.32 and 0.2 m from x <= 0.32, never less than the floor min(cost, 0.6 - x):
+    with the floor, the candidates whose retreat plus floor cannot beat the best total are not searched; the
+    branch point is the same. With the exact cost as the floor, the winner comes after skipped candidates."""
     path = _straight_path(0.8)
     cost = lambda p: 0.2 if p[0] <= 0.32 else 1.0  # noqa: E731
-    floor = lambda p: max(0.2, 0.6 - p[0])  # noqa: E731  (never more than the cost above)
+    floor = lambda p: min(cost(p), max(0.1, 0.6 - p[0]))  # noqa: E731  (never more than the cost)
     plain = FakeSearch(lambda p, t: True, path, cost=cost)
     bounded = FakeSearch(lambda p, t: True, path, cost=cost)
     s, plan = find_branch_point(path, plain, CFG)
     s2, plan2 = find_branch_point(path, bounded, CFG, cost_floor=floor)
     assert s2 == s and plan2.cost == plan.cost == 0.2 and s - path.start_arc_length == pytest.approx(0.30)
     # after the first candidate (total 1.05), x = 0.70 .. 0.35 are searched only if 0.8 - x + floor < 1.05:
-    # 0.2 + 0.2 for x >= 0.4 (retreat <= 0.4): all of them; the floor prunes once the best is 0.7 (x = 0.30):
-    # x = 0.25 .. 0.15 have retreat + floor 0.55 + 0.35 = 0.9 and more: not searched
+    # retreat 0.1 .. 0.45 plus floor 0.1 .. 0.25: all of them; once the best is 0.7 (x = 0.30), x = 0.25 .. 0.15
+    # have retreat + floor 0.55 + 0.2 = 0.75 and more: not searched
     searched = [round(float(p[0]), 6) for p, _ in bounded.calls]
     assert searched == [round(float(p[0]), 6) for p, _ in plain.calls][: len(searched)]
     assert len(searched) == 10 and searched[-1] == pytest.approx(0.30) and len(plain.calls) == 13
+    exact = FakeSearch(lambda p, t: True, path, cost=cost)
+    s3, _ = find_branch_point(path, exact, CFG, cost_floor=cost)  # x = 0.70 .. 0.35: 0.1 + 1.0 >= 1.05, ...
+    assert s3 == s and [round(float(p[0]), 6) for p, _ in exact.calls] == [0.75, 0.3]
 
 
 def test_of_equal_totals_the_nearer_branch_point_is_kept():

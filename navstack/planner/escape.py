@@ -2,13 +2,15 @@
 
 A wrong turn into a pocket costs serpentine length for good unless the robot backs out: the
 slithering body can only go where the tip has been, and the tip can only turn while it moves.
-So when the search finds no way on from the commanded state (every reachable state expanded),
+So when the search finds no way on from the commanded state (every reachable state expanded, or its
+budget spent),
 the planner looks *behind* it on its own commanded path for a point from which a way on exists:
 candidates every ``step`` [m] back along the path (the state there is the path's point and forward
 tangent), nearest first, up to the start of the path.  Of those whose search leads through every goal,
 the **branch point** is the one with the least retreat plus plan cost (both in metres: the whole way
-from where the tip is, backing out counted, as the search itself would weigh it); the scan stops once
-the retreat alone is no less than the best total so far (a plan's cost is never negative).  Taking the
+from where the tip is, backing out counted at its length); the scan stops once the retreat alone is no
+less than the best total so far (a plan's cost is never negative), and a candidate whose retreat plus a
+lower bound of its plan's cost (``cost_floor``) cannot beat that total is not searched.  Taking the
 nearest such point instead sent the tip, in the ``rod-forest`` worlds, back down the side it had just
 failed on (the way round a forest's edge through unseen space) while the way on the other side,
 0.1-0.3 m farther back, cost 0.2-0.5 m less in all: 4 of 20 trials timed out at seed 5353, 1 with
@@ -16,7 +18,8 @@ this rule.  The command then runs back along the path to it
 (reverse commands, :class:`navstack.retreat.Retreat`: the slithering controller drops the retracted
 part of its path memory, every joint point staying on the path), the path record is cut there, and
 the tip goes forward again on the new plan.  If no candidate has a way on, or the goal has cost
-``max_retreats`` retreats already, the planner gives up (``stalled``).
+``max_retreats`` retreats already, the planner follows a fallback plan if it has one, else waits for the
+map to change (``patience``) and then gives up (``stalled``).
 
 The planner's record of its commanded tip path is a :class:`navstack.path.PathMemory` with the
 controller's vertex spacing: it records the same commands as the controller's, so a point at arc
@@ -89,11 +92,13 @@ def find_branch_point(path: PathMemory, plan_from: Callable[[NDArray, NDArray, f
     start, from which ``plan_from`` finds a complete way on (a plan through every goal) with the least
     retreat (from the end of ``path``) plus plan cost [m]; of totals within :data:`TIE`, the nearer one.
 
-    ``plan_from(position, heading, s)`` searches from the path's state at arc length ``s``; returns
-    ``(s, plan)`` or None.  ``cost_floor(position)``, if given, is a lower bound of the cost of any plan from
-    ``position`` [m] (the search's costs are never less than the path's length): a candidate whose retreat
-    plus that bound cannot beat the best total so far is not searched (the answer is the same, found with
-    fewer searches).
+    ``plan_from(position, heading, s)`` searches from the path's state at arc length ``s`` and returns its
+    :class:`Plan`; this returns ``(s, plan)`` or None.  ``cost_floor(position)``, if given, is a lower bound
+    of the cost of any plan from ``position`` [m] (the search's costs are never less than the path's length):
+    a candidate whose retreat plus that bound cannot beat the best total so far is not searched.  The choice
+    among the candidates searched is the same; but a search not made no longer refreshes what ``plan_from``
+    may cache (the planner's navigation function), so a later search may differ in rare cases (none did on
+    the 140 validation trials of docs/speed.md, twenty-third round).
     """
     first = path.start_arc_length
     end = path.end_arc_length if before is None else min(path.end_arc_length, before + config.min_back)
