@@ -35,7 +35,7 @@ import numpy as np
 from navstack.generate.base import HEADING, Candidate, Guard, make_guard, place
 from navstack.generate.checks import CheckConfig, RobotStart, Samples, path_samples
 from navstack.generate.geometry import FloatArray, cylinder_dict, obstacle_distance, segment_samples
-from navstack.generate.slot_rack import ROW_EXTENT, Layout, way_through
+from navstack.generate.slot_rack import Layout, row_offsets, way_through
 from navstack.generate.sparse import (
     BLOCKED_DEPTH,
     SPARSE_CHECKS,
@@ -51,14 +51,11 @@ __all__ = ["family_fin_bank", "fin_row"]
 def fin_row(centre: FloatArray, u: FloatArray, a: FloatArray, n: FloatArray, slot: float, width: float,
             thickness: float, depth: float, half_length: float) -> list[dict[str, Any]]:
     """Fins (boxes ``thickness`` [m] along ``n``, ``2 depth`` along ``u``, ``2 half_length`` along ``a``)
-    spaced along ``n`` within :data:`ROW_EXTENT` of ``centre``, so that every channel between two fins is
-    ``width`` [m] surface to surface and one channel is centred ``slot`` [m] from ``centre`` along ``n``."""
-    pitch = width + thickness
-    first = slot + width / 2.0 + thickness / 2.0
+    spaced along ``n`` as a slot rack's row (:func:`~navstack.generate.slot_rack.row_offsets`): every channel
+    between two fins is ``width`` [m] surface to surface and one is centred ``slot`` [m] from ``centre``."""
     axes = np.column_stack([u, a, n])
     half = (depth, half_length, thickness / 2.0)
-    return [box_on_axes(centre + o * n, axes, half)
-            for o in (first + j * pitch for j in range(-40, 41)) if abs(o) <= ROW_EXTENT]
+    return [box_on_axes(centre + o * n, axes, half) for o in row_offsets(slot, width, thickness)]
 
 
 def _draw_layout(rng: np.random.Generator, difficulty: float) -> Layout:

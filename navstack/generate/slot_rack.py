@@ -52,7 +52,7 @@ from navstack.generate.sparse import (
 )
 
 __all__ = ["DESIGN_RADIUS", "ROW_EXTENT", "Layout", "Way", "entry_range", "entry_start", "family_slot_rack",
-           "path_offsets", "pipe_row", "plate_row", "profile", "s_curve", "way_through"]
+           "path_offsets", "pipe_row", "plate_row", "profile", "row_offsets", "s_curve", "way_through"]
 
 ROW_EXTENT = 0.4
 """Half width [m] of every row across the line (pipes whose axis is within it; plates out to it)."""
@@ -70,15 +70,21 @@ VIA_STEP = 0.04
 # --------------------------------------------------------------------------- rows
 
 
+def row_offsets(slot: float, width: float, member: float) -> list[float]:
+    """Offsets [m] of a row's members (``member`` [m] across, along the row) within :data:`ROW_EXTENT` of its
+    centre, so that every gap between two is ``width`` [m] surface to surface and one gap is centred ``slot``
+    [m] from the centre."""
+    pitch = width + member
+    first = slot + width / 2.0 + member / 2.0
+    return [first + j * pitch for j in range(-20, 21) if abs(first + j * pitch) <= ROW_EXTENT]
+
+
 def pipe_row(centre: FloatArray, a: FloatArray, n: FloatArray, slot: float, width: float, radius: float,
              half_length: float) -> list[dict[str, Any]]:
     """Pipes along ``a`` in the plane through ``centre``, spaced along ``n`` so that every gap is
     ``width`` [m] surface to surface and one gap is centred ``slot`` [m] from ``centre`` along ``n``."""
-    pitch = width + 2.0 * radius
-    first = slot + width / 2.0 + radius
-    offsets = [first + j * pitch for j in range(-20, 21) if abs(first + j * pitch) <= ROW_EXTENT]
     return [cylinder_dict(centre + o * n - half_length * a, centre + o * n + half_length * a, radius)
-            for o in offsets]
+            for o in row_offsets(slot, width, 2.0 * radius)]
 
 
 def plate_row(centre: FloatArray, u: FloatArray, a: FloatArray, n: FloatArray, windows: list[tuple[float, ...]],

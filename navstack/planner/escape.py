@@ -3,10 +3,9 @@
 A wrong turn into a pocket costs serpentine length for good unless the robot backs out: the
 slithering body can only go where the tip has been, and the tip can only turn while it moves.
 So when the search finds no way on from the commanded state (every reachable state expanded, or its
-budget spent),
-the planner looks *behind* it on its own commanded path for a point from which a way on exists:
-candidates every ``step`` [m] back along the path (the state there is the path's point and forward
-tangent), nearest first, up to the start of the path.  Of those whose search leads through every goal,
+budget spent), the planner looks *behind* it on its own commanded path for a point from which a way on
+exists: candidates every ``step`` [m] back along the path (the state there is the path's point and
+forward tangent), nearest first, up to the start of the path.  Of those whose search leads through every goal,
 the **branch point** is the one with the least retreat plus plan cost (both in metres: the whole way
 from where the tip is, backing out counted at its length); the scan stops once the retreat alone is no
 less than the best total so far (a plan's cost is never negative), and a candidate whose retreat plus a
@@ -111,7 +110,7 @@ def find_branch_point(path: PathMemory, plan_from: Callable[[NDArray, NDArray, f
         if retreat >= best_total:
             break  # no plan from farther back makes up for the longer retreat (a plan's cost is >= 0)
         p, t = path.point_at(s)
-        if best is not None and cost_floor is not None and retreat + cost_floor(p) >= best_total - TIE:
+        if cost_floor is not None and retreat + cost_floor(p) >= best_total - TIE:
             plan = None  # could not beat the best total: not searched
         else:
             plan = plan_from(p, t, s)
