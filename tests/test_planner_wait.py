@@ -98,7 +98,7 @@ def test_a_bad_patience_is_refused_naming_the_field(value):
 def test_the_wait_searches_once_the_map_forgot_and_escapes_every_fourth_period():
     """Closed cases of :meth:`Wait.next_search` (nav_period 1 s, the last plan at ``planned_at``)."""
     assert WAIT_ESCAPE_PERIODS == 4
-    w = Wait(since=0.0, forgotten=5, escaped=0.0)
+    w = Wait(since=0.0, forgotten=5, escaped=0.0, escape_forgotten=5)
     assert w.next_search(0.5, True, 6, 0.0, 1.0) is None  # within a period of the last plan
     assert w.next_search(1.0, False, 6, 0.0, 1.0) is None  # the map does not forget
     assert w.next_search(1.0, True, 5, 0.0, 1.0) is None  # nothing forgotten since
@@ -109,6 +109,19 @@ def test_the_wait_searches_once_the_map_forgot_and_escapes_every_fourth_period()
     assert w.next_search(4.0, True, 8, 3.0, 1.0) == "escape" and w.escaped == 4.0 and w.forgotten == 8
     assert w.next_search(5.0, True, 9, 4.0, 1.0) == "here"
 
+
+
+def test_an_escape_owed_is_made_when_due_though_the_map_has_stopped_forgetting():
+    """Points forgotten in the wait's first seconds owe an escape: made once one is due (4 periods after the
+    last), though nothing was forgotten since the last search; then none until more is forgotten."""
+    w = Wait(since=0.0, forgotten=5, escaped=0.0, escape_forgotten=5)
+    assert w.next_search(1.0, True, 6, 0.0, 1.0) == "here"  # forgotten since the last search: a search from here
+    assert w.next_search(2.0, True, 6, 1.0, 1.0) is None
+    assert w.next_search(3.9, True, 6, 1.0, 1.0) is None  # an escape not due yet
+    assert w.next_search(4.0, True, 6, 1.0, 1.0) == "escape" and w.escaped == 4.0 and w.escape_forgotten == 6
+    assert w.next_search(8.0, True, 6, 4.0, 1.0) is None  # nothing forgotten since that escape
+    assert w.next_search(8.0, False, 7, 4.0, 1.0) is None  # the map does not forget
+    assert w.next_search(8.0, True, 7, 4.0, 1.0) == "escape" and w.forgotten == 7
 
 def _rays_through(points: np.ndarray):
     """One reading of rays along +x, each straight through one of ``points`` (from 0.15 m before it, free to
@@ -159,6 +172,33 @@ def test_while_the_map_forgets_elsewhere_it_searches_once_a_second_and_escapes_e
     esc = sorted({round(t - t_wait, 3) for t in escaped})
     assert len(esc) == 2 and 4.0 <= esc[0] < 4.5 and esc[1] - esc[0] >= 4.0
 
+
+
+def test_points_forgotten_early_in_the_wait_bring_an_escape_when_one_is_due(monkeypatch):
+    """Points off the way forgotten in the first second of the wait only (a door that opened, seen from where the
+    tip waits): the escape back along the path, where a way through may begin, is still made, once due (4 s),
+    and only once; then the wait goes on to the patience."""
+    planner = _boxed_in(FieldPlannerConfig(escape=EscapeConfig(patience=9.0)))
+    y, z = np.meshgrid(np.arange(-0.3, 0.3, 0.01), np.arange(-0.3, 0.3, 0.01))
+    far = np.column_stack([np.full(y.size, 1.3), y.ravel(), z.ravel()])
+    planner.map.add_points(far)
+    t_wait = _step_until(planner, lambda p: p.mode == "wait")
+    escaped = []
+    real_branch = field_module.find_branch_point
+    monkeypatch.setattr(field_module, "find_branch_point",
+                        lambda *a, **k: escaped.append(planner.time) or real_branch(*a, **k))
+    batches = iter(range(0, 150, 5))
+
+    def forget_early(p: FieldPlanner) -> None:
+        i = next(batches, None)
+        if i is not None:
+            for _ in range(2):
+                p.map.update(*_rays_through(far[i:i + 5]))
+
+    t_stall = _step_each(planner, lambda p: p.stalled, t_wait + 20.0, forget_early)
+    assert t_stall - t_wait == pytest.approx(9.0, abs=1.5 * DT)
+    esc = sorted({round(t - t_wait, 3) for t in escaped})
+    assert len(esc) == 1 and 4.0 <= esc[0] < 4.5
 
 def test_a_face_forgotten_when_an_escape_is_due_lets_it_go_on():
     planner = _boxed_in(FieldPlannerConfig(escape=EscapeConfig(patience=30.0)))

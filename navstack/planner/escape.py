@@ -130,22 +130,29 @@ class Wait:
         since: when the wait began [s].
         forgotten: the map's count of forgotten points at the last search.
         escaped: when an escape (the searches back along the path) was last tried [s].
+        escape_forgotten: the map's count of forgotten points at the last escape (or as the wait began).
     """
 
     since: float
     forgotten: int
     escaped: float
+    escape_forgotten: int
 
     def next_search(self, now: float, forgetting: bool, forgotten: int, planned_at: float,
                     nav_period: float) -> str | None:
         """What to search at time ``now`` [s]: ``"escape"`` (from the command, then back along the path),
-        ``"here"`` (from the command only) or None.  A search once the map has forgotten points since the last
-        one (while it forgets), at most every ``nav_period`` after the last plan (``planned_at``) [s]; an escape
-        at most every :data:`WAIT_ESCAPE_PERIODS` periods."""
-        if not forgetting or forgotten == self.forgotten or now - planned_at < nav_period:
+        ``"here"`` (from the command only) or None.  Only while the map forgets, at most every ``nav_period``
+        after the last plan (``planned_at``) [s]: an escape at most every :data:`WAIT_ESCAPE_PERIODS` periods,
+        once the map has forgotten points since the last escape (even if none since the last search: a door
+        that opens while the tip waits is forgotten within a second or two, and the escape that can take the
+        way through it may only be due seconds later); else a search from here once it has forgotten points
+        since the last search.  (``forgotten`` only grows.)"""
+        if not forgetting or now - planned_at < nav_period:
+            return None
+        if now - self.escaped >= WAIT_ESCAPE_PERIODS * nav_period and forgotten != self.escape_forgotten:
+            self.escaped, self.forgotten, self.escape_forgotten = now, forgotten, forgotten
+            return "escape"
+        if forgotten == self.forgotten:
             return None
         self.forgotten = forgotten
-        if now - self.escaped >= WAIT_ESCAPE_PERIODS * nav_period:
-            self.escaped = now
-            return "escape"
         return "here"

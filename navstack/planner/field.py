@@ -379,7 +379,8 @@ class FieldPlanner:
                 # boxed in: hold still while the map may still change; what boxes the tip in may have moved (or
                 # still move) without the map having seen it often enough to sense it: the map forgets while it
                 # waits (a static map again once a way on is found: the map's "Forgetting")
-                self._wait = Wait(self.time, self.map.forgotten, self.time)  # (what goes as forgetting begins counts)
+                n = self.map.forgotten  # (what goes as forgetting begins counts)
+                self._wait = Wait(self.time, n, self.time, n)
                 if self.map.config.detect_motion:
                     self.map.begin_forgetting()
                 self.mode = "wait"
