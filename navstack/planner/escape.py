@@ -62,6 +62,10 @@ class EscapeConfig:
         patience: boxed in (no way on from the command, nor from any branch point), the planner holds still and
             searches again from where it is each time the map has changed (at most once a second) for this
             long [s] before it gives up: an obstacle may move away (a door that opens later); 0: at once.
+        look_back: waiting, once the map has forgotten points since the wait began (what boxed the tip in may
+            have moved) and then none for :data:`WAIT_ESCAPE_PERIODS` ``nav_period``, the tip backs this far [m]
+            along its own path, the map still forgetting, and searches again from there (:class:`Wait`).
+        max_look_backs: look-backs allowed for one goal.
     """
 
     step: float = 0.1
@@ -71,17 +75,21 @@ class EscapeConfig:
     accel: float = 0.1
     max_retreats: int = 6
     patience: float = 20.0
+    look_back: float = 0.15
+    max_look_backs: int = 2
 
     def __post_init__(self) -> None:
-        for name in ("step", "min_back", "max_back", "speed", "accel"):
+        for name in ("step", "min_back", "max_back", "speed", "accel", "look_back"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
                 raise ValueError(f"EscapeConfig.{name} must be a positive number, got {v!r}")
         v = self.patience
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
             raise ValueError(f"EscapeConfig.patience must be a number >= 0 [s], got {v!r}")
-        if isinstance(self.max_retreats, bool) or not isinstance(self.max_retreats, int) or self.max_retreats < 0:
-            raise ValueError(f"EscapeConfig.max_retreats must be an integer >= 0, got {self.max_retreats!r}")
+        for name in ("max_retreats", "max_look_backs"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+                raise ValueError(f"EscapeConfig.{name} must be an integer >= 0, got {v!r}")
 
 
 def find_branch_point(path: PathMemory, plan_from: Callable[[NDArray, NDArray, float], Plan],
@@ -131,12 +139,37 @@ class Wait:
         forgotten: the map's count of forgotten points at the last search.
         escaped: when an escape (the searches back along the path) was last tried [s].
         escape_forgotten: the map's count of forgotten points at the last escape (or as the wait began).
+        first: the map's count of forgotten points as the wait began (None: ``forgotten``).
+        seen: the count last seen by :meth:`quiet_after_change` (None: ``forgotten``).
+        changed_at: when the count last changed [s] (None: ``since``).
     """
 
     since: float
     forgotten: int
     escaped: float
     escape_forgotten: int
+    first: int | None = None
+    seen: int | None = None
+    changed_at: float | None = None
+
+    def __post_init__(self) -> None:
+        self.first = self.forgotten if self.first is None else self.first
+        self.seen = self.forgotten if self.seen is None else self.seen
+        self.changed_at = self.since if self.changed_at is None else self.changed_at
+
+    def go_on_from(self, earlier: Wait) -> None:
+        """This wait (begun after a search back along the path, or a look-back, found no way) is ``earlier``
+        going on: the patience counts from its start, and what the map forgot from its own."""
+        self.since, self.first = earlier.since, earlier.first
+        self.seen, self.changed_at = earlier.seen, earlier.changed_at
+
+    def quiet_after_change(self, now: float, forgotten: int, quiet: float) -> bool:
+        """Whether the map has forgotten points since the wait began (``forgotten``, the count now) and none
+        for the last ``quiet`` [s] (time ``now`` [s]): what boxed the tip in may have moved, and what the tip
+        sees from where it is has stopped changing the map."""
+        if forgotten != self.seen:
+            self.seen, self.changed_at = forgotten, now
+        return forgotten != self.first and now - self.changed_at >= quiet  # type: ignore[operator]
 
     def next_search(self, now: float, forgetting: bool, forgotten: int, planned_at: float,
                     nav_period: float) -> str | None:

@@ -32,8 +32,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from navstack.estimate import RangeEstimate
-from navstack.path import PathMemory
-from navstack.planner.escape import EscapeConfig, Wait, find_branch_point
+from navstack.path import MIN_ARC, PathMemory
+from navstack.planner.escape import WAIT_ESCAPE_PERIODS, EscapeConfig, Wait, find_branch_point
 from navstack.planner.map import MapConfig, SensedMap
 from navstack.planner.potential import NavigationFunction, Repulsion, navigation_function
 from navstack.planner.proximity import sets_closer_than
@@ -197,7 +197,7 @@ class FieldPlanner:
         self.stall_reason: str | None = None
         """Why the planner gave up (None while it has not)."""
         self.retreat: Retreat | None = None
-        self._pending: tuple[float, Plan] | None = None
+        self._pending: tuple[float, Plan | None] | None = None  # (branch point, its plan; None: a look-back)
         self._planned_at = 0.0
         self._planned_version = -1
         self.replans = 0
@@ -205,6 +205,9 @@ class FieldPlanner:
         self._command_goal_s = 0.0
         self._last_branch: float | None = None
         self._wait: Wait | None = None  # boxed in, waiting for the map to change
+        self._looking: Wait | None = None  # the wait a look-back (backing out to look again) goes on
+        self._goal_look_backs: dict[int, int] = {}
+        self.look_backs = 0
 
     # ---- planning
     def _navigation(self, p: NDArray[np.float64], k: int, fresh: bool) -> NavigationFunction | None:
@@ -405,6 +408,9 @@ class FieldPlanner:
         cfg = self.config
         wait = self._wait
         assert wait is not None
+        if self._may_look_back(wait):
+            self._start_look_back(wait)
+            return self.step_hold(0.0)
         what = wait.next_search(self.time, self.map.forgetting, self.map.forgotten, self._planned_at, cfg.nav_period)
         if what == "escape":
             self._wait = None
@@ -413,7 +419,7 @@ class FieldPlanner:
                 if not self.stalled:  # a way on, or an escape: back to a static map until motion is sensed
                     self.map.end_forgetting()
                 return self.step_hold(0.0)
-            self._wait.since = wait.since
+            self._wait.go_on_from(wait)
         elif what == "here":
             p, h = self.follower.state()
             plan = self._plan_from(p, h, self.command_goal)
@@ -428,6 +434,45 @@ class FieldPlanner:
             self._stall(f"{self._boxed_in()}; no way either after waiting {cfg.escape.patience:g} s "
                         f"(EscapeConfig.patience) for the map to change")
         return self.step_hold(0.0)
+
+    def _may_look_back(self, wait: Wait) -> bool:
+        """Whether to back out to look again (``EscapeConfig.look_back``): the map has forgotten points since the
+        wait began and none for :data:`~navstack.planner.escape.WAIT_ESCAPE_PERIODS` ``nav_period``, this goal
+        has look-backs left, there is path to back along, and patience left."""
+        esc = self.config.escape
+        quiet = wait.quiet_after_change(self.time, self.map.forgotten, WAIT_ESCAPE_PERIODS * self.config.nav_period)
+        return (quiet and self._goal_look_backs.get(self.command_goal, 0) < esc.max_look_backs
+                and self.path.end_arc_length - self._look_back_to() > 0.02 and self.time - wait.since < esc.patience)
+
+    def _look_back_to(self) -> float:
+        return max(self.path.end_arc_length - self.config.escape.look_back, self.path.start_arc_length, MIN_ARC + 1e-6)
+
+    def _start_look_back(self, wait: Wait) -> None:
+        """Back ``EscapeConfig.look_back`` along the path, the map still forgetting, to search again from there:
+        a door that opened while the tip waited turned away from it, off its axis, is seen by a ray or two only,
+        and the stale points of it the tip cannot see past stay in the map (three ``sliding-door`` trials that
+        stalled at seed 2026)."""
+        n = self._goal_look_backs.get(self.command_goal, 0)
+        self._goal_look_backs[self.command_goal] = n + 1
+        self.look_backs += 1
+        self._pending = (self._look_back_to(), None)
+        self._looking, self._wait = wait, None
+        self.retreat = Retreat(self.path, self._pending[0], self.config.escape.speed, self.config.escape.accel)
+        self.mode = "retreat"
+
+    def _look_again(self) -> None:
+        """A look-back done: plan from where it ended (a way on, an escape, or the same wait going on)."""
+        p, t = self.path.point_at(self.path.end_arc_length)
+        here = Plan(points=p[None].copy(), tangents=t[None].copy(), arc=np.zeros(1),
+                    goal_index=np.array([self.command_goal]), status=NO_PATH, cost=0.0, expansions=0)
+        self.follower = PlanFollower(here, self.config.steering, 0.0)
+        wait, self._looking = self._looking, None
+        self._replan()
+        if self._wait is None:
+            if not self.stalled:
+                self.map.end_forgetting()
+        elif wait is not None:
+            self._wait.go_on_from(wait)
 
     def _needs_replan(self) -> bool:
         cfg = self.config
@@ -487,6 +532,9 @@ class FieldPlanner:
             self.path.truncate(s)
             self.retreat = None
             self._pending = None
+            if plan is None:
+                self._look_again()
+                return cmd
             self.follower = PlanFollower(plan, self.config.steering, 0.0)
             self._planned_version = -1  # the map has grown while backing out: replan now
             self._planned_at = -math.inf
