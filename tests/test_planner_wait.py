@@ -95,6 +95,13 @@ def test_a_bad_patience_is_refused_naming_the_field(value):
         EscapeConfig(patience=value)
 
 
+
+@pytest.mark.parametrize(("name", "value"), [("look_back", 0.0), ("look_back", float("inf")), ("look_back", True),
+                                             ("max_look_backs", -1), ("max_look_backs", 1.5), ("max_look_backs", True)])
+def test_a_bad_look_back_is_refused_naming_the_field(name, value):
+    with pytest.raises(ValueError, match=f"EscapeConfig.{name} must be"):
+        EscapeConfig(**{name: value})
+
 def test_the_wait_searches_once_the_map_forgot_and_escapes_every_fourth_period():
     """Closed cases of :meth:`Wait.next_search` (nav_period 1 s, the last plan at ``planned_at``)."""
     assert WAIT_ESCAPE_PERIODS == 4
@@ -199,6 +206,50 @@ def test_points_forgotten_early_in_the_wait_bring_an_escape_when_one_is_due(monk
     assert t_stall - t_wait == pytest.approx(9.0, abs=1.5 * DT)
     esc = sorted({round(t - t_wait, 3) for t in escaped})
     assert len(esc) == 1 and 4.0 <= esc[0] < 4.5
+
+
+def _boxed_in_after_a_run(config: FieldPlannerConfig) -> FieldPlanner:
+    """A planner that has come 0.25 m along +x (its goal 2 m on) and is then boxed in round where it is."""
+    planner = FieldPlanner(np.zeros(3), X, [(2.0, 0.0, 0.0)], [0.02], config)
+    _step_until(planner, lambda p: p.path.head[0] >= 0.25, t_max=20.0)
+    planner.map.add_points(box_surface(planner.path.head, 0.2))
+    return planner
+
+
+@pytest.mark.parametrize("forget", [True, False], ids=["points-forgotten", "static"])
+def test_once_the_map_has_forgotten_and_gone_quiet_it_looks_back_twice_a_goal(forget):
+    """Points off the way forgotten in the wait's first second, then none: 4 s later the tip backs 0.15 m along
+    its own path (the map still forgetting) and searches again; at most twice for the goal; the patience counted
+    from the wait's start.  With nothing forgotten (a static map), it never backs out."""
+    planner = _boxed_in_after_a_run(FieldPlannerConfig(escape=EscapeConfig(patience=14.0)))
+    y, z = np.meshgrid(np.arange(-0.3, 0.3, 0.01), np.arange(-0.3, 0.3, 0.01))
+    far = np.column_stack([np.full(y.size, 2.3), y.ravel(), z.ravel()])  # beyond the goal, off the way
+    planner.map.add_points(far)
+    t_wait = _step_until(planner, lambda p: p.mode == "wait")
+    end, start = planner.path.end_arc_length, planner.path.start_arc_length
+    assert end - start > 0.2
+    batches = iter(range(0, 150 if forget else 0, 5))
+    looks: list[tuple[float, float, int]] = []  # (time since the wait began [s], path end [m], look-backs) as each
+    # look-back begins
+
+    def forget_early(p: FieldPlanner) -> None:
+        i = next(batches, None)
+        if i is not None:
+            for _ in range(2):
+                p.map.update(*_rays_through(far[i:i + 5]))
+        if p.mode == "retreat" and (not looks or looks[-1][2] != p.look_backs):
+            looks.append((p.time - t_wait, p.path.end_arc_length, p.look_backs))
+
+    t_stall = _step_each(planner, lambda p: p.stalled, t_wait + 30.0, forget_early)
+    assert t_stall - t_wait == pytest.approx(14.0, abs=1.5 * DT)
+    if not forget:
+        assert planner.look_backs == 0 and looks == [] and planner.path.end_arc_length == end
+        return
+    assert planner.look_backs == 2 and [n for *_, n in looks] == [1, 2]
+    assert 5.0 <= looks[0][0] < 5.5  # 4 s after the last point was forgotten (about 1 s into the wait)
+    assert looks[1][1] == pytest.approx(end - 0.15, abs=1e-6)  # the second from 0.15 m back
+    assert planner.path.end_arc_length == pytest.approx(max(end - 0.3, start), abs=1e-6)  # not behind the tip's start
+    assert planner.map.forgetting  # still waiting for the map to change
 
 def test_a_face_forgotten_when_an_escape_is_due_lets_it_go_on():
     planner = _boxed_in(FieldPlannerConfig(escape=EscapeConfig(patience=30.0)))
