@@ -14,6 +14,7 @@ import pytest
 from _clouds import box_surface
 
 import navstack.planner.field as field_module
+import navstack.planner.recovery as recovery_module
 from navstack.planner.escape import WAIT_ESCAPE_PERIODS, EscapeConfig, Wait
 from navstack.planner.field import FieldPlanner, FieldPlannerConfig
 from navstack.planner.map import MapConfig
@@ -161,9 +162,9 @@ def test_while_the_map_forgets_elsewhere_it_searches_once_a_second_and_escapes_e
     planner.map.add_points(far)
     t_wait = _step_until(planner, lambda p: p.mode == "wait")
     searched, escaped = [], []
-    real_search, real_branch = field_module.search, field_module.find_branch_point
+    real_search, real_branch = field_module.search, recovery_module.find_branch_point
     monkeypatch.setattr(field_module, "search", lambda *a, **k: searched.append(planner.time) or real_search(*a, **k))
-    monkeypatch.setattr(field_module, "find_branch_point",
+    monkeypatch.setattr(recovery_module, "find_branch_point",
                         lambda *a, **k: escaped.append(planner.time) or real_branch(*a, **k))
     batches = iter(range(0, len(far), 5))
 
@@ -191,8 +192,8 @@ def test_points_forgotten_early_in_the_wait_bring_an_escape_when_one_is_due(monk
     planner.map.add_points(far)
     t_wait = _step_until(planner, lambda p: p.mode == "wait")
     escaped = []
-    real_branch = field_module.find_branch_point
-    monkeypatch.setattr(field_module, "find_branch_point",
+    real_branch = recovery_module.find_branch_point
+    monkeypatch.setattr(recovery_module, "find_branch_point",
                         lambda *a, **k: escaped.append(planner.time) or real_branch(*a, **k))
     batches = iter(range(0, 150, 5))
 
