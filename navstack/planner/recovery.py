@@ -45,6 +45,7 @@ class Recovery:
     """Escape, wait, look back and give up, for :class:`~navstack.planner.field.FieldPlanner` (its base class)."""
 
     config: FieldPlannerConfig
+    goals: NDArray[np.float64]
     map: SensedMap
     path: PathMemory
     follower: PlanFollower
@@ -199,8 +200,8 @@ class Recovery:
         elif wait is not None:
             self._wait.go_on_from(wait)
 
-
     def _step_retreat(self, dt: float) -> TipCommand:
+        """Back along the path (an escape, or a look-back); at its end, the escape's plan, or a look again."""
         r = self.retreat
         assert r is not None
         cmd = r.step(dt)
