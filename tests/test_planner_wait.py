@@ -220,8 +220,9 @@ def _boxed_in_after_a_run(config: FieldPlannerConfig) -> FieldPlanner:
 @pytest.mark.parametrize("forget", [True, False], ids=["points-forgotten", "static"])
 def test_once_the_map_has_forgotten_and_gone_quiet_it_looks_back_twice_a_goal(forget):
     """Points off the way forgotten in the wait's first second, then none: 4 s later the tip backs 0.15 m along
-    its own path (the map still forgetting) and searches again; at most twice for the goal; the patience counted
-    from the wait's start.  With nothing forgotten (a static map), it never backs out."""
+    its own path (the map still forgetting) and searches again; the map forgot nothing meanwhile, so it backs
+    0.15 m more at once; at most twice for the goal; the patience counted from the wait's start.  With nothing
+    forgotten (a static map), it never backs out."""
     planner = _boxed_in_after_a_run(FieldPlannerConfig(escape=EscapeConfig(patience=14.0)))
     y, z = np.meshgrid(np.arange(-0.3, 0.3, 0.01), np.arange(-0.3, 0.3, 0.01))
     far = np.column_stack([np.full(y.size, 2.3), y.ravel(), z.ravel()])  # beyond the goal, off the way
@@ -248,7 +249,8 @@ def test_once_the_map_has_forgotten_and_gone_quiet_it_looks_back_twice_a_goal(fo
         return
     assert planner.look_backs == 2 and [n for *_, n in looks] == [1, 2]
     assert 5.0 <= looks[0][0] < 5.5  # 4 s after the last point was forgotten (about 1 s into the wait)
-    assert looks[1][1] == pytest.approx(end - 0.15, abs=1e-6)  # the second from 0.15 m back
+    assert looks[1][1] == pytest.approx(end - 0.15, abs=1e-6)  # the second from 0.15 m back,
+    assert looks[1][0] - looks[0][0] < 4.5  # as soon as the first is done (~3.5 s): nothing forgotten while backing
     assert planner.path.end_arc_length == pytest.approx(max(end - 0.3, start), abs=1e-6)  # not behind the tip's start
     assert planner.map.forgetting  # still waiting for the map to change
 

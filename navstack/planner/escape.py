@@ -18,7 +18,8 @@ this rule.  The command then runs back along the path to it
 part of its path memory, every joint point staying on the path), the path record is cut there, and
 the tip goes forward again on the new plan.  If no candidate has a way on, or the goal has cost
 ``max_retreats`` retreats already, the planner follows a fallback plan if it has one, else waits for the
-map to change (``patience``) and then gives up (``stalled``).
+map to change (``patience``, :class:`Wait`; once the map has forgotten points and gone quiet, it looks back,
+``look_back``) and then gives up (``stalled``).  :mod:`navstack.planner.recovery` runs all of this.
 
 The planner's record of its commanded tip path is a :class:`navstack.path.PathMemory` with the
 controller's vertex spacing: it records the same commands as the controller's, so a point at arc
@@ -45,7 +46,8 @@ WAIT_ESCAPE_PERIODS = 4
 """Waiting boxed in, an escape (up to 15 searches back along the path) is tried again at most every this many
 ``nav_period`` [s]; from the command, every ``nav_period`` (the map forgetting).  Measured on a static world that
 boxes the tip in (the adversarial zigzag duct, ``navstack run`` seed 0): 4.9 s of wall time without waiting, 14.2 s
-waiting with an escape each time the map forgot points, 7.6 s with this throttle."""
+waiting with an escape each time the map forgot points, 7.6 s with this throttle.  Also how long [``nav_period``]
+the map must have forgotten nothing before a look-back (``EscapeConfig.look_back``)."""
 
 
 @dataclass(frozen=True)

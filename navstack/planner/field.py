@@ -24,7 +24,6 @@ and the filtered sensor readings (tests/test_isolation.py).  Units: metres, seco
 
 from __future__ import annotations
 
-import logging
 import math
 from dataclasses import dataclass, field, replace
 
@@ -53,8 +52,6 @@ from navstack.planner.search import (
 from navstack.planner.steering import PlanFollower, SteeringConfig
 from navstack.planner.types import TipCommand
 from navstack.retreat import Retreat
-
-_log = logging.getLogger(__name__)
 
 RELAXED_GOAL_FRACTION = 0.85
 """The goal ball (fraction of each tolerance) of a full search's second try when the first, at the search's own

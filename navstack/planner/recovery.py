@@ -66,13 +66,13 @@ class Recovery:
     _planned_at: float
     _planned_version: int
 
-    # provided by the planner
-    def arm_blocks_the_way(self) -> bool: ...  # pragma: no cover
-    def _plan_from(self, p: NDArray[np.float64], h: NDArray[np.float64], k: int, at: float | None = None,
-                   budget: int | None = None) -> Plan: ...  # pragma: no cover
-    def _cost_floor(self, p: NDArray[np.float64], k: int) -> float: ...  # pragma: no cover
-    def _replan(self) -> None: ...  # pragma: no cover
-    def step_hold(self, dt: float) -> TipCommand: ...  # pragma: no cover
+    if TYPE_CHECKING:  # provided by the planner
+        def arm_blocks_the_way(self) -> bool: ...
+        def _plan_from(self, p: NDArray[np.float64], h: NDArray[np.float64], k: int, at: float | None = None,
+                       budget: int | None = None) -> Plan: ...
+        def _cost_floor(self, p: NDArray[np.float64], k: int) -> float: ...
+        def _replan(self) -> None: ...
+        def step_hold(self, dt: float) -> TipCommand: ...
 
     def _stall(self, why: str) -> None:
         """Give up: ``why`` becomes :attr:`stall_reason` (and an INFO line of the ``navstack.planner.field``
@@ -187,7 +187,9 @@ class Recovery:
         self.mode = "retreat"
 
     def _look_again(self) -> None:
-        """A look-back done: plan from where it ended (a way on, an escape, or the same wait going on)."""
+        """A look-back done: plan from where it ended (a way on, an escape, or the same wait going on).  If the
+        map forgot nothing while the tip backed out, the wait is still quiet and the next look-back (if the goal
+        has one left) follows at once, from farther back."""
         p, t = self.path.point_at(self.path.end_arc_length)
         here = Plan(points=p[None].copy(), tangents=t[None].copy(), arc=np.zeros(1),
                     goal_index=np.array([self.command_goal]), status=NO_PATH, cost=0.0, expansions=0)
