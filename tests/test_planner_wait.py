@@ -106,7 +106,7 @@ def test_a_bad_look_back_is_refused_naming_the_field(name, value):
 def test_the_wait_searches_once_the_map_forgot_and_escapes_every_fourth_period():
     """Closed cases of :meth:`Wait.next_search` (nav_period 1 s, the last plan at ``planned_at``)."""
     assert WAIT_ESCAPE_PERIODS == 4
-    w = Wait(since=0.0, forgotten=5, escaped=0.0, escape_forgotten=5)
+    w = Wait.begin(0.0, 5)
     assert w.next_search(0.5, True, 6, 0.0, 1.0) is None  # within a period of the last plan
     assert w.next_search(1.0, False, 6, 0.0, 1.0) is None  # the map does not forget
     assert w.next_search(1.0, True, 5, 0.0, 1.0) is None  # nothing forgotten since
@@ -122,7 +122,7 @@ def test_the_wait_searches_once_the_map_forgot_and_escapes_every_fourth_period()
 def test_an_escape_owed_is_made_when_due_though_the_map_has_stopped_forgetting():
     """Points forgotten in the wait's first seconds owe an escape: made once one is due (4 periods after the
     last), though nothing was forgotten since the last search; then none until more is forgotten."""
-    w = Wait(since=0.0, forgotten=5, escaped=0.0, escape_forgotten=5)
+    w = Wait.begin(0.0, 5)
     assert w.next_search(1.0, True, 6, 0.0, 1.0) == "here"  # forgotten since the last search: a search from here
     assert w.next_search(2.0, True, 6, 1.0, 1.0) is None
     assert w.next_search(3.9, True, 6, 1.0, 1.0) is None  # an escape not due yet

@@ -141,23 +141,23 @@ class Wait:
         forgotten: the map's count of forgotten points at the last search.
         escaped: when an escape (the searches back along the path) was last tried [s].
         escape_forgotten: the map's count of forgotten points at the last escape (or as the wait began).
-        first: the map's count of forgotten points as the wait began (None: ``forgotten``).
-        seen: the count last seen by :meth:`quiet_after_change` (None: ``forgotten``).
-        changed_at: when the count last changed [s] (None: ``since``).
+        first: the map's count of forgotten points as the wait began.
+        seen: the count last seen by :meth:`quiet_after_change`.
+        changed_at: when the count last changed [s] (or the wait began).
     """
 
     since: float
     forgotten: int
     escaped: float
     escape_forgotten: int
-    first: int | None = None
-    seen: int | None = None
-    changed_at: float | None = None
+    first: int
+    seen: int
+    changed_at: float
 
-    def __post_init__(self) -> None:
-        self.first = self.forgotten if self.first is None else self.first
-        self.seen = self.forgotten if self.seen is None else self.seen
-        self.changed_at = self.since if self.changed_at is None else self.changed_at
+    @classmethod
+    def begin(cls, now: float, forgotten: int) -> Wait:
+        """A wait beginning at time ``now`` [s], the map having forgotten ``forgotten`` points so far."""
+        return cls(now, forgotten, now, forgotten, forgotten, forgotten, now)
 
     def go_on_from(self, earlier: Wait) -> None:
         """This wait (begun after a search back along the path, or a look-back, found no way) is ``earlier``
@@ -171,7 +171,7 @@ class Wait:
         sees from where it is has stopped changing the map."""
         if forgotten != self.seen:
             self.seen, self.changed_at = forgotten, now
-        return forgotten != self.first and now - self.changed_at >= quiet  # type: ignore[operator]
+        return forgotten != self.first and now - self.changed_at >= quiet
 
     def next_search(self, now: float, forgetting: bool, forgotten: int, planned_at: float,
                     nav_period: float) -> str | None:

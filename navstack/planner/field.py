@@ -195,7 +195,7 @@ class FieldPlanner(Recovery):
         self.stall_reason: str | None = None
         """Why the planner gave up (None while it has not)."""
         self.retreat: Retreat | None = None
-        self._pending: tuple[float, Plan | None] | None = None  # (branch point, its plan; None: a look-back)
+        self._pending: tuple[float, Plan | Wait] | None = None  # (branch point, its plan; or a look-back's wait)
         self._planned_at = 0.0
         self._planned_version = -1
         self.replans = 0
@@ -203,7 +203,6 @@ class FieldPlanner(Recovery):
         self._command_goal_s = 0.0
         self._last_branch: float | None = None
         self._wait: Wait | None = None  # boxed in, waiting for the map to change
-        self._looking: Wait | None = None  # the wait a look-back (backing out to look again) goes on
         self._goal_look_backs: dict[int, int] = {}
         self.look_backs = 0
 

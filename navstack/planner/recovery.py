@@ -57,9 +57,8 @@ class Recovery:
     retreat: Retreat | None
     retreats: int
     look_backs: int
-    _pending: tuple[float, Plan | None] | None
+    _pending: tuple[float, Plan | Wait] | None
     _wait: Wait | None
-    _looking: Wait | None
     _goal_retreats: dict[int, int]
     _goal_look_backs: dict[int, int]
     _last_branch: float | None
@@ -108,8 +107,7 @@ class Recovery:
                 # boxed in: hold still while the map may still change; what boxes the tip in may have moved (or
                 # still move) without the map having seen it often enough to sense it: the map forgets while it
                 # waits (a static map again once a way on is found: the map's "Forgetting")
-                n = self.map.forgotten  # (what goes as forgetting begins counts)
-                self._wait = Wait(self.time, n, self.time, n)
+                self._wait = Wait.begin(self.time, self.map.forgotten)  # (what goes as forgetting begins counts)
                 if self.map.config.detect_motion:
                     self.map.begin_forgetting()
                 self.mode = "wait"
@@ -181,12 +179,12 @@ class Recovery:
         n = self._goal_look_backs.get(self.command_goal, 0)
         self._goal_look_backs[self.command_goal] = n + 1
         self.look_backs += 1
-        self._pending = (self._look_back_to(), None)
-        self._looking, self._wait = wait, None
+        self._pending = (self._look_back_to(), wait)  # the wait goes on after it, unless a way is found
+        self._wait = None
         self.retreat = Retreat(self.path, self._pending[0], self.config.escape.speed, self.config.escape.accel)
         self.mode = "retreat"
 
-    def _look_again(self) -> None:
+    def _look_again(self, wait: Wait) -> None:
         """A look-back done: plan from where it ended (a way on, an escape, or the same wait going on).  If the
         map forgot nothing while the tip backed out, the wait is still quiet and the next look-back (if the goal
         has one left) follows at once, from farther back."""
@@ -194,12 +192,11 @@ class Recovery:
         here = Plan(points=p[None].copy(), tangents=t[None].copy(), arc=np.zeros(1),
                     goal_index=np.array([self.command_goal]), status=NO_PATH, cost=0.0, expansions=0)
         self.follower = PlanFollower(here, self.config.steering, 0.0)
-        wait, self._looking = self._looking, None
         self._replan()
         if self._wait is None:
             if not self.stalled:
                 self.map.end_forgetting()
-        elif wait is not None:
+        else:
             self._wait.go_on_from(wait)
 
     def _step_retreat(self, dt: float) -> TipCommand:
@@ -212,8 +209,8 @@ class Recovery:
             self.path.truncate(s)
             self.retreat = None
             self._pending = None
-            if plan is None:
-                self._look_again()
+            if isinstance(plan, Wait):  # a look-back
+                self._look_again(plan)
                 return cmd
             self.follower = PlanFollower(plan, self.config.steering, 0.0)
             self._planned_version = -1  # the map has grown while backing out: replan now
