@@ -73,6 +73,10 @@ class EstimatorConfig:
         initial_rate_std: prior std of b when a track starts [m/s].
         gate_sigma: innovation gate in standard deviations; beyond it the track resets.
         max_coast: consecutive dropouts a track survives by prediction alone.
+        lag_sigma: a measured ray whose filtered range is more than this many ``measurement_std`` from its own
+            measurement is *lagging* (:attr:`RangeEstimate.lagging`): the filter's rate carried it past a
+            change its model does not have, such as a rim where the range stops falling while the rate still
+            says it falls.  ``inf``: no ray ever is.
     """
 
     measurement_std: float = 0.004
@@ -80,16 +84,19 @@ class EstimatorConfig:
     initial_rate_std: float = 0.05
     gate_sigma: float = 4.0
     max_coast: int = 5
+    lag_sigma: float = 2.0
 
     def __post_init__(self) -> None:
-        for name in ("measurement_std", "rate_process_std", "initial_rate_std", "gate_sigma"):
+        for name in ("measurement_std", "rate_process_std", "initial_rate_std", "gate_sigma", "lag_sigma"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)):
                 raise ValueError(f"EstimatorConfig.{name} must be a number, got {v!r}")
-            if not np.isfinite(v) or v < 0:
+            if np.isnan(v) or v < 0 or (np.isinf(v) and name != "lag_sigma"):
                 raise ValueError(f"EstimatorConfig.{name} must be finite and >= 0, got {v}")
         if self.gate_sigma <= 0:
             raise ValueError(f"EstimatorConfig.gate_sigma must be > 0, got {self.gate_sigma}")
+        if self.lag_sigma <= 0:
+            raise ValueError(f"EstimatorConfig.lag_sigma must be > 0 (inf: never lagging), got {self.lag_sigma}")
         if isinstance(self.max_coast, bool) or not isinstance(self.max_coast, (int, np.integer)):
             raise ValueError(f"EstimatorConfig.max_coast must be an integer, got {self.max_coast!r}")
         if self.max_coast < 0:
@@ -111,6 +118,10 @@ class RangeEstimate:
         range_std: (R,) posterior standard deviation of the range [m] (``NaN`` if untracked).
         valid: (R,) False where the ray dropped out of this reading (no information).
         max_range: the sensor's range [m] (a valid ray that is not tracking saw free space this far).
+        measured_ranges: (R,) this reading's own range [m] where ``measured``, ``NaN`` elsewhere (None: not
+            given, as by a caller that builds an estimate itself).
+        lagging: (R,) True where a measured ray's filtered range is more than
+            :attr:`EstimatorConfig.lag_sigma` measurement stds from ``measured_ranges`` (None: none is).
     """
 
     origins: NDArray[np.float64]
@@ -122,12 +133,24 @@ class RangeEstimate:
     range_std: NDArray[np.float64]
     valid: NDArray[np.bool_] | None = None
     max_range: float = float("nan")
+    measured_ranges: NDArray[np.float64] | None = None
+    lagging: NDArray[np.bool_] | None = None
 
     @property
     def points(self) -> NDArray[np.float64]:
         """World positions (K, 3) [m] of the filtered obstacle points (tracked rays)."""
         m = self.tracking
         return self.origins[m] + self.ranges[m, None] * self.directions[m]
+
+    @property
+    def surface_ranges(self) -> NDArray[np.float64]:
+        """(R,) [m] where each measured ray's surface is: the filtered range, or where the ray is
+        :attr:`lagging`, its own measurement (the filter there is behind a change its model does not
+        have); ``NaN`` for rays not measured in this reading."""
+        r = np.where(self.measured, self.ranges, np.nan)
+        if self.lagging is None or self.measured_ranges is None:
+            return r
+        return np.where(self.lagging, self.measured_ranges, r)
 
     @property
     def measured_points(self) -> NDArray[np.float64]:
@@ -264,16 +287,22 @@ class RangeEstimator:
         """The current tracks as a :class:`RangeEstimate` of ``reading``."""
         t = self.tracking
         nan = np.nan
+        measured = reading.hit & t
+        z = np.where(measured, reading.ranges, nan)
+        filtered = self._x[:, 0, 0]
+        lagging = measured & (np.abs(np.where(measured, filtered - z, 0.0)) > self.config.lag_sigma * self._std)
         return RangeEstimate(
             origins=np.array(reading.origins),
             directions=np.array(reading.directions),
             ranges=np.where(t, self._x[:, 0, 0], nan),
             rates=np.where(t, self._x[:, 1, 0], nan),
             tracking=t.copy(),
-            measured=reading.hit & t,
+            measured=measured,
             range_std=np.where(t, np.sqrt(np.maximum(self._P[:, 0, 0], 0.0)), nan),
             valid=np.array(reading.valid),
             max_range=float(reading.max_range),
+            measured_ranges=z,
+            lagging=lagging,
         )
 
 

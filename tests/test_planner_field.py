@@ -542,3 +542,26 @@ def test_a_slot_too_narrow_for_the_margin_gets_a_plan_with_the_tight_margin():
 def test_tight_margin_is_checked(bad):
     with pytest.raises(ValueError, match="tight_margin"):
         FieldPlannerConfig(tight_margin=bad)
+
+
+def test_a_lagging_rays_surface_goes_into_the_map_at_its_measurement_not_at_the_estimate():
+    """sense -> map: a filter that ran past a rim (tests/test_estimate.py) would put a point in front of it, in
+    the opening; the map gets the ray's own measurement there, and the filtered range everywhere else."""
+    from navstack.estimate import EstimatorConfig, RangeEstimate
+    from navstack.planner.field import _fuse
+    from navstack.planner.map import MapConfig, SensedMap
+
+    origins, dirs = np.zeros((2, 3)), np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+
+    def fused(lagging):
+        reading = RangeEstimate(origins, dirs, ranges=np.array([0.160, 0.250]), rates=np.array([-0.23, 0.0]),
+                                tracking=np.ones(2, bool), measured=np.ones(2, bool), range_std=np.full(2, 0.003),
+                                valid=np.ones(2, bool), max_range=0.4, measured_ranges=np.array([0.1717, 0.2505]),
+                                lagging=np.array(lagging))
+        smap = SensedMap(np.full(3, -0.5), np.full(3, 0.5), MapConfig(shadow_depths=()))
+        _fuse(smap, reading, 0.03)
+        return smap.surface_points[np.lexsort(smap.surface_points.T[::-1])]
+
+    np.testing.assert_allclose(fused([True, False]), [[0.0, 0.250, 0.0], [0.1717, 0.0, 0.0]], atol=1e-15)
+    np.testing.assert_allclose(fused([False, False]), [[0.0, 0.250, 0.0], [0.160, 0.0, 0.0]], atol=1e-15)
+    assert EstimatorConfig().lag_sigma == 2.0

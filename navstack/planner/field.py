@@ -131,8 +131,10 @@ def _vec3(v: ArrayLike, name: str) -> NDArray[np.float64]:
 
 
 def _fuse(smap: SensedMap, reading: RangeEstimate | None, ray_start: float) -> None:
-    """sense -> map: one filtered reading's rays into ``smap``, free from ``ray_start`` [m] (measured rays hit;
-    a ray without a measurement is free up to the maximum range where the filter is not coasting)."""
+    """sense -> map: one filtered reading's rays into ``smap``, free from ``ray_start`` [m] (measured rays hit
+    at their :attr:`~navstack.estimate.RangeEstimate.surface_ranges`: a lagging filter's range would put a
+    point in front of a rim; a ray without a measurement is free up to the maximum range where the filter is
+    not coasting)."""
     if reading is None:
         return
     if not isinstance(reading, RangeEstimate):
@@ -142,7 +144,7 @@ def _fuse(smap: SensedMap, reading: RangeEstimate | None, ray_start: float) -> N
     valid = np.asarray(getattr(reading, "valid", np.ones_like(measured)), dtype=np.bool_)
     tracking = np.asarray(reading.tracking, dtype=np.bool_)
     max_range = float(getattr(reading, "max_range", 0.4))
-    ranges = np.where(measured, reading.ranges, max_range)
+    ranges = np.where(measured, reading.surface_ranges, max_range)
     informative = measured | (valid & ~tracking)
     smap.update(reading.origins, reading.directions, np.full(len(ranges), ray_start), ranges, measured, informative)
 
