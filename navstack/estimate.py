@@ -143,16 +143,6 @@ class RangeEstimate:
         return self.origins[m] + self.ranges[m, None] * self.directions[m]
 
     @property
-    def surface_ranges(self) -> NDArray[np.float64]:
-        """(R,) [m] where each measured ray's surface is: the filtered range, or where the ray is
-        :attr:`lagging`, its own measurement (the filter there is behind a change its model does not
-        have); ``NaN`` for rays not measured in this reading."""
-        r = np.where(self.measured, self.ranges, np.nan)
-        if self.lagging is None or self.measured_ranges is None:
-            return r
-        return np.where(self.lagging, self.measured_ranges, r)
-
-    @property
     def measured_points(self) -> NDArray[np.float64]:
         """World positions [m] of the filtered points of rays that hit in this reading."""
         m = self.measured

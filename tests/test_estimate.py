@@ -525,7 +525,7 @@ def _rim_run(lag_sigma: float, rate: float = -0.25, dt: float = 1 / 30, n_ramp: 
     return np.array(true), [est.update(_single_ray_reading(r), dt, np.zeros(3)) for r in true]
 
 
-def test_a_filter_that_runs_past_a_rim_is_lagging_and_the_surface_is_its_measurement():
+def test_a_filter_that_runs_past_a_rim_is_lagging():
     true, outs = _rim_run(2.0)
     ahead = np.array([o.ranges[0] - r for o, r in zip(outs, true, strict=True)])
     lagging = np.array([o.lagging[0] for o in outs])
@@ -536,22 +536,21 @@ def test_a_filter_that_runs_past_a_rim_is_lagging_and_the_surface_is_its_measure
     np.testing.assert_array_equal(lagging, np.abs(ahead) > 2.0 * 0.004)  # lagging: more than 2 stds off
     for o, r in zip(outs, true, strict=True):
         assert o.measured_ranges[0] == r
-        assert o.surface_ranges[0] == (r if o.lagging[0] else o.ranges[0])  # never more than 2 stds off
         np.testing.assert_array_equal(o.measured_points, o.origins[:1] + o.ranges[0] * o.directions[:1])
 
 
-def test_with_an_infinite_lag_sigma_no_ray_is_lagging_and_the_surface_is_the_estimate():
+def test_with_an_infinite_lag_sigma_no_ray_is_lagging():
     true, outs = _rim_run(float("inf"))
     assert not any(o.lagging[0] for o in outs)
-    assert min(o.surface_ranges[0] - r for o, r in zip(outs, true, strict=True)) < -0.011  # in front of the rim
+    assert min(o.ranges[0] - r for o, r in zip(outs, true, strict=True)) < -0.011  # in front of the rim all the same
 
 
-def test_surface_ranges_of_rays_not_measured_are_nan_and_lag_sigma_is_checked():
+def test_measured_ranges_of_rays_not_measured_are_nan_and_lag_sigma_is_checked():
     est = RangeEstimator(2, EstimatorConfig(measurement_std=0.004))
     reading = SensorReading(np.zeros((2, 3)), np.array([[1.0, 0, 0], [0, 1.0, 0]]), np.array([0.2, 0.4]),
                             np.array([True, False]), np.array([True, True]), 0.4)
     out = est.update(reading, 0.05, np.zeros(3))
-    assert out.surface_ranges[0] == 0.2 and np.isnan(out.surface_ranges[1]) and np.isnan(out.measured_ranges[1])
+    assert out.measured_ranges[0] == 0.2 and np.isnan(out.measured_ranges[1])
     assert not out.lagging.any()
     for bad in (0.0, -1.0, float("nan")):
         with pytest.raises(ValueError, match="EstimatorConfig.lag_sigma"):

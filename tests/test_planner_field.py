@@ -544,9 +544,10 @@ def test_tight_margin_is_checked(bad):
         FieldPlannerConfig(tight_margin=bad)
 
 
-def test_a_lagging_rays_surface_goes_into_the_map_at_its_measurement_not_at_the_estimate():
+def test_a_lagging_ray_tells_the_map_nothing_and_the_others_their_filtered_range():
     """sense -> map: a filter that ran past a rim (tests/test_estimate.py) would put a point in front of it, in
-    the opening; the map gets the ray's own measurement there, and the filtered range everywhere else."""
+    the opening, and its measurement, more than 2 stds off, is as likely the noisiest of the reading: neither
+    goes into the map, nor the ray's free space; every other measured ray's filtered range does."""
     from navstack.estimate import EstimatorConfig, RangeEstimate
     from navstack.planner.field import _fuse
     from navstack.planner.map import MapConfig, SensedMap
@@ -560,8 +561,12 @@ def test_a_lagging_rays_surface_goes_into_the_map_at_its_measurement_not_at_the_
                                 lagging=np.array(lagging))
         smap = SensedMap(np.full(3, -0.5), np.full(3, 0.5), MapConfig(shadow_depths=()))
         _fuse(smap, reading, 0.03)
-        return smap.surface_points[np.lexsort(smap.surface_points.T[::-1])]
+        return smap
 
-    np.testing.assert_allclose(fused([True, False]), [[0.0, 0.250, 0.0], [0.1717, 0.0, 0.0]], atol=1e-15)
-    np.testing.assert_allclose(fused([False, False]), [[0.0, 0.250, 0.0], [0.160, 0.0, 0.0]], atol=1e-15)
+    lagging, not_lagging = fused([True, False]), fused([False, False])
+    np.testing.assert_allclose(lagging.surface_points, [[0.0, 0.250, 0.0]], atol=1e-15)
+    assert not lagging.is_seen_free([0.1, 0.0, 0.0]) and lagging.is_seen_free([0.0, 0.1, 0.0])
+    points = not_lagging.surface_points[np.lexsort(not_lagging.surface_points.T[::-1])]
+    np.testing.assert_allclose(points, [[0.0, 0.250, 0.0], [0.160, 0.0, 0.0]], atol=1e-15)
+    assert not_lagging.is_seen_free([0.1, 0.0, 0.0])
     assert EstimatorConfig().lag_sigma == 2.0
