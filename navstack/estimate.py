@@ -279,8 +279,7 @@ class RangeEstimator:
         nan = np.nan
         measured = reading.hit & t
         z = np.where(measured, reading.ranges, nan)
-        filtered = self._x[:, 0, 0]
-        lagging = measured & (np.abs(np.where(measured, filtered - z, 0.0)) > self.config.lag_sigma * self._std)
+        lagging = np.abs(self._x[:, 0, 0] - z) > self.config.lag_sigma * self._std  # NaN (not measured): False
         return RangeEstimate(
             origins=np.array(reading.origins),
             directions=np.array(reading.directions),
