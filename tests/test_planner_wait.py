@@ -96,12 +96,12 @@ def test_a_bad_patience_is_refused_naming_the_field(value):
         EscapeConfig(patience=value)
 
 
-
 @pytest.mark.parametrize(("name", "value"), [("look_back", 0.0), ("look_back", float("inf")), ("look_back", True),
                                              ("max_look_backs", -1), ("max_look_backs", 1.5), ("max_look_backs", True)])
 def test_a_bad_look_back_is_refused_naming_the_field(name, value):
     with pytest.raises(ValueError, match=f"EscapeConfig.{name} must be"):
         EscapeConfig(**{name: value})
+
 
 def test_the_wait_searches_once_the_map_forgot_and_escapes_every_fourth_period():
     """Closed cases of :meth:`Wait.next_search` (nav_period 1 s, the last plan at ``planned_at``)."""
@@ -253,6 +253,7 @@ def test_once_the_map_has_forgotten_and_gone_quiet_it_looks_back_twice_a_goal(fo
     assert looks[1][0] - looks[0][0] < 4.5  # as soon as the first is done (~3.5 s): nothing forgotten while backing
     assert planner.path.end_arc_length == pytest.approx(max(end - 0.3, start), abs=1e-6)  # not behind the tip's start
     assert planner.map.forgetting  # still waiting for the map to change
+
 
 def test_a_face_forgotten_when_an_escape_is_due_lets_it_go_on():
     planner = _boxed_in(FieldPlannerConfig(escape=EscapeConfig(patience=30.0)))

@@ -138,12 +138,8 @@ class Recovery:
         what = wait.next_search(self.time, self.map.forgetting, self.map.forgotten, self._planned_at, cfg.nav_period)
         if what == "escape":
             self._wait = None
-            self._replan()  # a way on, an escape back along the path, or boxed in again (waiting on)
-            if self._wait is None:
-                if not self.stalled:  # a way on, or an escape: back to a static map until motion is sensed
-                    self.map.end_forgetting()
+            if not self._replan_waiting(wait):
                 return self.step_hold(0.0)
-            self._wait.go_on_from(wait)
         elif what == "here":
             p, h = self.follower.state()
             plan = self._plan_from(p, h, self.command_goal)
@@ -192,12 +188,19 @@ class Recovery:
         here = Plan(points=p[None].copy(), tangents=t[None].copy(), arc=np.zeros(1),
                     goal_index=np.array([self.command_goal]), status=NO_PATH, cost=0.0, expansions=0)
         self.follower = PlanFollower(here, self.config.steering, 0.0)
+        self._replan_waiting(wait)
+
+    def _replan_waiting(self, wait: Wait) -> bool:
+        """Search again for a wait (:meth:`_replan`): a way on, or an escape back along the path, ends it (the
+        map static again until motion is sensed, unless the planner gave up); boxed in again, ``wait`` goes on.
+        Returns whether it goes on."""
         self._replan()
         if self._wait is None:
             if not self.stalled:
                 self.map.end_forgetting()
-        else:
-            self._wait.go_on_from(wait)
+            return False
+        self._wait.go_on_from(wait)
+        return True
 
     def _step_retreat(self, dt: float) -> TipCommand:
         """Back along the path (an escape, or a look-back); at its end, the escape's plan, or a look again."""
