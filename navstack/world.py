@@ -130,7 +130,7 @@ MIN_LENGTH = 1e-4
 MAX_LENGTH = 1000.0
 """Metres: the largest obstacle size (radius, half-extent, oscillation amplitude, scaled mesh extent)."""
 MIN_CYLINDER_LENGTH = MIN_LENGTH
-"""Metres: a cylinder's ``p0`` and ``p1`` must be at least this far apart."""
+"""Metres: a cylinder's ``p0`` and ``p1`` must be at least this far apart (and at most :data:`MAX_LENGTH`)."""
 MIN_ROBOT_RADIUS = jpl.MIN_ROBOT_RADIUS
 """Metres: the smallest ``serpentine_radius`` / ``arm_radius``."""
 MAX_ROBOT_RADIUS = jpl.MAX_ROBOT_RADIUS
@@ -678,9 +678,13 @@ class Cylinder(_ValueEq):
 
 
 def _check_length(ctx: _Ctx, path: str, p0: FloatArray, p1: FloatArray) -> None:
-    if not float(np.linalg.norm(p1 - p0)) >= MIN_CYLINDER_LENGTH:
+    length = float(np.linalg.norm(p1 - p0))
+    if not length >= MIN_CYLINDER_LENGTH:
         raise ctx.error(path, f"expected a point different from p0 (a cylinder needs a length of at least "
                               f"{MIN_CYLINDER_LENGTH:g} m), got {p1.tolist()}")
+    if not length <= MAX_LENGTH:
+        raise ctx.error(path, f"expected a point within {MAX_LENGTH:g} m of p0 (the longest cylinder), got "
+                              f"{p1.tolist()}, {length:.6g} m away")
 
 
 @dataclass(frozen=True, eq=False)

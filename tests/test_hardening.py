@@ -40,7 +40,7 @@ def no_simulation(monkeypatch):
 ENGULFING = {
     "sphere": {"type": "sphere", "center": BASE_POSITION.tolist(), "radius": 500.0},
     "box": {"type": "box", "center": BASE_POSITION.tolist(), "half_extents": [500.0, 500.0, 500.0]},
-    "cylinder": {"type": "cylinder", "p0": [-900.0, 0.0, 0.0], "p1": [900.0, 0.0, 0.0], "radius": 900.0},
+    "cylinder": {"type": "cylinder", "p0": [-490.0, 0.0, 0.0], "p1": [490.0, 0.0, 0.0], "radius": 900.0},
     "small-at-tip": {"type": "sphere", "center": TIP.tolist(), "radius": 0.01},
 }
 

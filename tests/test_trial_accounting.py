@@ -488,3 +488,23 @@ def test_the_recorded_times_never_pass_the_time_limit(hold_planner, tmp_path, ti
     # and not a step fewer than the limit allows: a step that ends within 1e-9 periods past it counts
     # (0.7 - 3e-11 s is 20.9999999991 periods of 1/30 s: 21 steps, the last one read as the limit)
     assert r.steps == steps
+
+
+def test_a_contact_with_a_very_long_cylinder_that_pybullet_reads_far_is_a_collision(monkeypatch, tmp_path):
+    """An audit's wrong success (session 29): the scripted trial's last step touches a cylinder 1,027 m long by
+    5 um, and PyBullet read 9 mm there, so no contact was counted.  Such a cylinder is refused now (lengths
+    are at most 1 km, as documented); admitted here past that bound, the scene measures it exactly
+    (``Scene`` ``LARGE_EXTENT``) and the trial is a collision."""
+    import navstack.world as world_module
+
+    monkeypatch.setattr(world_module, "MAX_LENGTH", 5000.0)
+    world = world_from_dict({
+        "format": "navstack-world/1", "name": "long-cylinder",
+        "robot": {"base": {"position": [500, 0, 0], "rpy": [0, 0, 0]}},
+        "obstacles": [{"type": "cylinder", "p0": [999.9, -120.857714, 1.569133],
+                       "p1": [1.850449, 120.709752, 2.421894], "radius": 0.01}],
+        "goals": [{"position": [500.867, -0.108, 2.0], "tolerance": 0.005}], "time_limit": 10})
+    result = run_trial(world, planner="scripted", seed=0)
+    assert result.goals_reached == 1
+    assert not result.success and result.reason == "collision"
+    assert result.metrics["contacts"] >= 1 and result.metrics["min_clearance"] <= 0.0

@@ -414,6 +414,19 @@ def test_bounds_hold_for_dataclasses_too():
               goals=(Goal(position=[1, 0, 1]),))
 
 
+def test_a_cylinder_longer_than_1_km_is_refused_at_its_p1(valid, spec_file):
+    """The documented bound on a cylinder's length (1 km; an audit found 2 km ones loading, and PyBullet's
+    distance to one reading 9 mm off a 5 um contact)."""
+    valid["obstacles"][0].update(p0=[-500.0, 0.0, 1.0], p1=[500.5, 0.0, 1.0])
+    with pytest.raises(WorldError, match=r"obstacles\[0\]\.p1: expected a point within 1000 m of p0") as ei:
+        world_from_dict(valid, source=spec_file)
+    assert ei.value.json_path == "obstacles[0].p1"
+    valid["obstacles"][0]["p1"] = [500.0, 0.0, 1.0]
+    assert world_from_dict(valid, source=spec_file).obstacles[0].length == 1000.0
+    with pytest.raises(WorldError, match=r"Cylinder\.p1: expected a point within 1000 m"):
+        Cylinder(p0=[-600.0, 0.0, 0.0], p1=[600.0, 0.0, 0.0], radius=0.1)
+
+
 def test_scaled_mesh_extent_is_bounded(valid, spec_file):
     write_stl(spec_file.parent / "parts" / "big.stl", extents=(10.0, 10.0, 10.0))
     valid["obstacles"][3].update(path="parts/big.stl", scale=300.0)  # vertices 1500 m from the origin
