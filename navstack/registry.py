@@ -221,3 +221,8 @@ register_family("rod-forest", "thin parallel rods across the approach, any roll,
                 "navstack.generate.rod_forest:family_rod_forest", seed_id=10,
                 difficulty="rod radius 6-12 -> 4-8 mm, 20 -> 60 rods drawn, the way winds 0.08-0.1 -> 0.08-0.11 m "
                            "aside")
+register_family("duct-elbow", "inside a square duct, round an elbow; goal: the destination only (inside, near the "
+                "duct's far end)",
+                "navstack.generate.duct_elbow:family_duct_elbow", seed_id=11,
+                difficulty="half width 0.1 -> 0.075 m, elbow 45-70 -> 75-100 deg of radius 0.42-0.5 -> 0.3-0.38 m, "
+                           "mouth off the heading up to 10 -> 25 deg")

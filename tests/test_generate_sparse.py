@@ -1,6 +1,5 @@
 """Families whose goals do not mark the way (``slot-rack``, ``sparse-truss``, ``bend-clutter``, ``fin-bank``,
-``rod-forest``), the
-``dead-end`` family, and ``retract`` worlds.
+``rod-forest``), the ``dead-end`` and ``duct-elbow`` families, and ``retract`` worlds.
 
 Each family's worlds pass :func:`check_world` with the user's 12 mm for every link (stored in
 ``extra.generator.check_config``); their goals alone do not lead through (the spline through them cuts
@@ -28,13 +27,14 @@ from navstack.generate import (
     write_family_examples,
 )
 from navstack.generate.build import time_limit_for
+from navstack.generate.duct_elbow import curve
 from navstack.trial import run_trial
 from navstack.truss import PAPER_BASE_RPY, robot_tip_start
 from navstack.world import Cylinder, load_world, save_world
 
 TIP, HEADING = robot_tip_start((0.0, 0.0, 0.3), PAPER_BASE_RPY)
 WORLDS = Path(__file__).resolve().parents[1] / "worlds"
-SPARSE = ("slot-rack", "sparse-truss", "bend-clutter", "fin-bank", "rod-forest")
+SPARSE = ("slot-rack", "sparse-truss", "bend-clutter", "fin-bank", "rod-forest", "duct-elbow")
 NEW = (*SPARSE, "dead-end")
 CASES = [(f, s, d) for f in NEW for s, d in ((0, 0.0), (1, 0.3), (2, 0.6), (3, 1.0), (4, 1.0))]
 
@@ -299,6 +299,42 @@ def test_dead_end_has_box_tubes_and_cages():
     assert kinds == {"box tube", "cage"}
 
 
+def test_curve_arcs_end_where_the_closed_form_puts_them():
+    """:func:`duct_elbow.curve`: straight 0.1 m, then a quarter circle of radius 0.3 m towards ``b``: it ends
+    at ``TIP + 0.1 h + 0.3 (h + b)`` heading along ``b``, every point of the arc 0.3 m from its centre."""
+    b = np.cross(HEADING, [0.0, 0.0, 1.0])
+    b /= np.linalg.norm(b)
+    pts, tans, arcs = curve([(0.1, 0.0, None), (0.3 * np.pi / 2, 0.3, b + 0.4 * HEADING)], step=0.01)
+    assert np.allclose(pts[-1], TIP + 0.1 * HEADING + 0.3 * (HEADING + b), atol=1e-12)
+    assert np.allclose(tans[-1], b, atol=1e-12) and arcs[-1] == pytest.approx(0.1 + 0.15 * np.pi)
+    centre = TIP + 0.1 * HEADING + 0.3 * b
+    on_arc = arcs >= 0.1
+    assert np.allclose(np.linalg.norm(pts[on_arc] - centre, axis=1), 0.3, atol=1e-12)
+    assert np.allclose(np.linalg.norm(np.diff(pts, axis=0), axis=1), np.diff(arcs), rtol=1e-3)
+
+
+@pytest.mark.parametrize(("seed", "difficulty"), [(0, 0.0), (1, 1.0), (2, 0.5), (5, 1.0)])
+def test_duct_elbow_walls_enclose_the_way_round_the_elbow(seed, difficulty):
+    """The hidden way runs inside the duct: from the mouth on, every reference point is about the half width
+    from the walls (never closer than the serpentine radius + 15 mm), the straight line from the tip to the
+    goal cuts a wall, and the duct turns by the drawn elbow angle."""
+    w = generate_world("duct-elbow", seed, difficulty)
+    gen = w.extra["generator"]
+    duct = w.obstacles[: gen["structure_obstacles"]]
+    h = gen["half_width"]
+    assert 0.07 - 1e-9 <= h <= 0.1 and len(w.goals) == 1 and not w.retract
+    ref = reference_path(TIP, HEADING, np.array(gen["reference_via"]))
+    inside = ref.points[ref.arc >= gen["mouth_ahead"] + 0.05]
+    d = obstacle_distance(duct, inside)
+    assert d.min() >= 0.025 + 0.015 and d.max() <= np.sqrt(2.0) * h + 0.01
+    line = TIP + np.linspace(0.0, 1.0, 400)[:, None] * (w.goal_positions[0] - TIP)
+    assert obstacle_distance(duct, line).min() < 0.0
+    via = np.array(gen["reference_via"])
+    t0, t1 = via[1] - via[0], via[-1] - via[-2]
+    turn = np.degrees(np.arccos(t0 @ t1 / np.linalg.norm(t0) / np.linalg.norm(t1)))
+    assert turn <= gen["elbow_deg"] + gen["tilt_deg"] + 2.0 and turn >= abs(gen["elbow_deg"] - gen["tilt_deg"]) - 2.0
+
+
 # --------------------------------------------------------------------------- retract
 
 
@@ -343,7 +379,8 @@ def test_family_examples_in_worlds_are_regenerated_identically(tmp_path):
 @pytest.mark.slow
 @pytest.mark.parametrize(("family", "seed", "difficulty"), [("slot-rack", 0, 0.5), ("slot-rack", 1, 1.0),
                                                           ("sparse-truss", 1, 1.0), ("bend-clutter", 0, 1.0),
-                                                          ("fin-bank", 0, 1.0), ("rod-forest", 0, 1.0)])
+                                                          ("fin-bank", 0, 1.0), ("rod-forest", 0, 1.0),
+                                                          ("duct-elbow", 1, 1.0)])
 def test_scripted_collides_on_the_goals_but_follows_the_reference_through(family, seed, difficulty):
     w = generate_world(family, seed, difficulty)
     blind = run_trial(w, planner="scripted")

@@ -5,7 +5,8 @@
 ahead, the goal behind it, the way round over the top) and ``pipe_rack.json`` (a generated rack).
 Examples of the families whose goals do not mark the way, and of ``dead-end``
 (:func:`write_family_examples`): ``slot_rack.json``, ``sparse_truss.json``, ``bend_clutter.json``,
-``dead_end.json``, ``fin_bank.json``, ``rod_forest.json`` (generated worlds, :data:`FAMILY_EXAMPLES`).
+``dead_end.json``, ``fin_bank.json``, ``rod_forest.json``, ``duct_elbow.json`` (generated worlds,
+:data:`FAMILY_EXAMPLES`).
 Units: metres, radians.
 """
 
@@ -178,6 +179,7 @@ FAMILY_EXAMPLES = (
     ("dead_end.json", "dead-end", 1, 1.0),
     ("fin_bank.json", "fin-bank", 0, 1.0),
     ("rod_forest.json", "rod-forest", 0, 1.0),
+    ("duct_elbow.json", "duct-elbow", 0, 0.5),
 )
 """(file, family, seed, difficulty) of the example worlds of the newer families in ``worlds/``."""
 
