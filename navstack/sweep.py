@@ -560,7 +560,7 @@ def _prepare_dir(out_dir: Path, specs: Sequence[TrialSpec], config: dict[str, An
         if have != wanted:
             first = next((i for i, (a, b) in enumerate(zip(have, wanted, strict=False)) if a != b),
                          min(len(have), len(wanted)))
-            what = (f"trial {first}: stored {have[first]!r:.160} vs requested {wanted[first]!r:.160}"
+            what = (f"trial {first}: {_differences(have[first], wanted[first])}"
                     if first < min(len(have), len(wanted)) else "one list is a prefix of the other")
             raise SweepError(
                 f"{out_dir} holds a different sweep ({len(have)} stored trials, {len(wanted)} requested; "
@@ -575,15 +575,55 @@ def _prepare_dir(out_dir: Path, specs: Sequence[TrialSpec], config: dict[str, An
     _atomic_write_bytes(sweep_path, (json.dumps(doc, indent=1) + "\n").encode("utf-8"))
 
 
+def _differences(stored: Any, wanted: dict[str, Any]) -> str:
+    """What differs between a stored trial and a requested one, key by key (each value cut to 80 characters)."""
+    if not isinstance(stored, dict):
+        return f"stored {stored!r:.160} vs requested {wanted!r:.160}"
+    keys = sorted(set(stored) | set(wanted), key=str)
+    diff = [f"{k}: stored {stored.get(k)!r:.80}, requested {wanted.get(k)!r:.80}" for k in keys
+            if stored.get(k) != wanted.get(k)]
+    return "; ".join(diff)
+
+
 def _world_hashes(specs: Sequence[TrialSpec]) -> dict[str, str | None]:
-    """SHA-256 of each world file the trials read (``--worlds``; None: unreadable), by path."""
+    """SHA-256 of each world file the trials read (``--worlds``; None: unreadable), by path, and of each mesh file
+    such a world names (by its resolved path): a mesh changed between two runs of a sweep changes its world."""
     out: dict[str, str | None] = {}
     for spec in specs:
         if not spec.generated and spec.world_file not in out:
-            try:
-                out[spec.world_file] = hashlib.sha256(Path(spec.world_file).read_bytes()).hexdigest()
-            except OSError:
-                out[spec.world_file] = None
+            text = _read_bytes(Path(spec.world_file))
+            out[spec.world_file] = None if text is None else hashlib.sha256(text).hexdigest()
+            for mesh in _mesh_files(Path(spec.world_file), text):
+                if str(mesh) not in out:
+                    data = _read_bytes(mesh)
+                    out[str(mesh)] = None if data is None else hashlib.sha256(data).hexdigest()
+    return out
+
+
+def _read_bytes(path: Path) -> bytes | None:
+    try:
+        return path.read_bytes()
+    except OSError:
+        return None
+
+
+def _mesh_files(world_file: Path, text: bytes | None) -> list[Path]:
+    """The mesh files a world file's obstacles name, resolved against its folder (none if it cannot be parsed:
+    its trials end in an ``error`` line anyway)."""
+    try:
+        obstacles = json.loads(text)["obstacles"] if text is not None else []
+    except (ValueError, TypeError, KeyError, RecursionError):
+        return []
+    if not isinstance(obstacles, list):
+        return []
+    paths = [o["path"] for o in obstacles if isinstance(o, dict) and o.get("type") == "mesh"
+             and isinstance(o.get("path"), str)]
+    out = []
+    for p in paths:
+        try:
+            out.append((world_file.parent / p).resolve())
+        except (OSError, RuntimeError, ValueError):
+            continue
     return out
 
 

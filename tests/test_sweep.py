@@ -934,6 +934,44 @@ def test_a_sweep_whose_world_file_changed_is_not_resumed(tmp_path):
     assert run_sweep(specs[:2], out, jobs=1, runner=fake_runner, progress=False).skipped == 2
 
 
+def test_a_sweep_whose_mesh_file_changed_is_not_resumed(tmp_path):
+    """A mesh is part of its world: an audit (session 29) shrank and moved a world's STL between two runs of a
+    sweep, and the rerun went on: one world name, a collision and a success from two different meshes.  The
+    mesh's SHA-256 is stored beside its world's (by its resolved path) and checked the same way."""
+    folder = write_worlds(tmp_path / "in", 1)
+    (folder / "parts").mkdir()
+    mesh = folder / "parts" / "box.stl"
+    mesh.write_bytes(b"solid a\nendsolid a\n")
+    doc = json.loads((folder / "w00.json").read_text())
+    doc["obstacles"] = [{"type": "mesh", "path": "parts/box.stl", "position": [0, 0, 0]},
+                        {"type": "mesh", "path": "parts/missing.stl", "position": [0, 0, 0]}]
+    (folder / "w00.json").write_text(json.dumps(doc))
+    specs = build_specs(SweepConfig(worlds_dir=str(folder), count=2))
+    out = tmp_path / "out"
+    run_sweep(specs[:1], out, jobs=1, runner=fake_runner, progress=False)  # a first part, as if interrupted
+    stored = json.loads((out / "sweep.json").read_text())["world_files"]
+    assert stored[str(mesh.resolve())] == sweep.hashlib.sha256(mesh.read_bytes()).hexdigest()
+    assert stored[str((folder / "parts" / "missing.stl").resolve())] is None
+    original = mesh.read_bytes()
+    mesh.write_bytes(b"solid b\nendsolid b\n")
+    with pytest.raises(SweepError, match=r"box\.stl changed since the sweep in .* began"):
+        run_sweep(specs[:1], out, jobs=1, runner=fake_runner, progress=False)
+    mesh.write_bytes(original)
+    assert run_sweep(specs[:1], out, jobs=1, runner=fake_runner, progress=False).skipped == 1
+
+
+def test_a_different_sweep_is_refused_naming_what_differs(tmp_path):
+    """The refusal names the fields of the first trial that differ (it once cut both trials to 160 characters,
+    which hid the seed a user had changed)."""
+    folder = write_worlds(tmp_path / "in", 2)
+    out = tmp_path / "out"
+    run_sweep(build_specs(SweepConfig(worlds_dir=str(folder), seed=0)), out, jobs=1, runner=fake_runner,
+              progress=False)
+    with pytest.raises(SweepError, match=r"first difference at trial 0: seed: stored \d+, requested \d+\)"):
+        run_sweep(build_specs(SweepConfig(worlds_dir=str(folder), seed=1)), out, jobs=1, runner=fake_runner,
+                  progress=False)
+
+
 def test_a_sweep_of_more_than_a_million_trials_is_refused_before_it_is_listed(tmp_path, capsys):
     """--count 100000000 ran out of memory before the first trial; 1,000,000 is the bound."""
     from navstack.sweep import MAX_TRIALS
