@@ -407,12 +407,14 @@ def summarize(records: Iterable[Mapping[str, Any]], *, checked: bool = False) ->
 
 @dataclass(frozen=True)
 class Loaded:
-    """Records of a results file, their 1-based line numbers, and whether a cut-off last line was ignored."""
+    """Records of a results file, their 1-based line numbers, whether a cut-off last line was ignored, and how many
+    trials the ``sweep.json`` beside it lists (None: no readable one)."""
 
     path: Path
     records: list[dict[str, Any]]
     line_numbers: list[int]
     truncated_tail: bool
+    planned: int | None = None
 
 
 def load_results(path: str | Path) -> Loaded:
@@ -433,24 +435,25 @@ def load_results(path: str | Path) -> Loaded:
         raise ReportError(f"{path}: no trial results in the file (it is empty)")
     lines = rf.line_numbers
     _check_records(rf.records, lambda i: f"{path}, line {lines[i]}", lambda i: f"line {lines[i]}")
-    _check_against_sweep(path, rf.records, lines)
-    return Loaded(path, rf.records, rf.line_numbers, rf.truncated_tail)
+    planned = _check_against_sweep(path, rf.records, lines)
+    return Loaded(path, rf.records, rf.line_numbers, rf.truncated_tail, planned)
 
 
-def _check_against_sweep(path: Path, records: Sequence[Mapping[str, Any]], lines: Sequence[int]) -> None:
+def _check_against_sweep(path: Path, records: Sequence[Mapping[str, Any]], lines: Sequence[int]) -> int | None:
     """When ``results.jsonl`` lies beside the ``sweep.json`` of the sweep that wrote it, refuse a line that is not
     one of its trials: a ``trial_id`` it does not list, or one whose seed, world or method is another's
     (:data:`navstack.sweep.SPEC_KEYS`; a line of the same worlds run with another ``--seed`` has the same
-    ``trial_id``). A ``sweep.json`` that cannot be read as one is left alone: the lines are reported as they are."""
+    ``trial_id``). A ``sweep.json`` that cannot be read as one is left alone: the lines are reported as they are.
+    Returns how many trials the sweep lists (None without a readable ``sweep.json``)."""
     from navstack.sweep import SWEEP_NAME, SweepError, TrialSpec, read_sweep_file, spec_mismatch
 
     sweep_path = path.parent / SWEEP_NAME
     if not sweep_path.exists():
-        return
+        return None
     try:
         specs = {spec.trial_id: spec for spec in map(TrialSpec.from_dict, read_sweep_file(sweep_path)["trials"])}
     except (SweepError, KeyError, TypeError, AttributeError, ValueError):
-        return
+        return None
     for rec, line in zip(records, lines, strict=True):
         tid = rec.get("trial_id")
         if tid is None:
@@ -461,6 +464,7 @@ def _check_against_sweep(path: Path, records: Sequence[Mapping[str, Any]], lines
             raise ReportError(f"{path}, line {line}: not a line of the sweep in {sweep_path}: {why}"
                               + (f" {sweep_path}" if spec is None else "")
                               + " (a line of another sweep configuration, or edited)")
+    return len(specs)
 
 
 # --------------------------------------------------------------------------------------------------------
@@ -501,10 +505,11 @@ RATE_HEADER = ["trials", "successes", "success rate", "95 % CI low", "95 % CI hi
 
 
 def render_markdown(s: Summary, *, source: str = "results.jsonl", plots: Sequence[str] = (),
-                    truncated_tail: bool = False) -> str:
-    """The report as Markdown; ``plots`` are the PNG paths (relative to the report) to embed."""
+                    truncated_tail: bool = False, planned: int | None = None) -> str:
+    """The report as Markdown; ``plots`` are the PNG paths (relative to the report) to embed; ``planned``: the
+    number of trials of the sweep (its ``sweep.json``), to say so when fewer are recorded."""
     plot_of = {Path(p).name: p for p in plots}
-    lines = _intro_section(s, source, truncated_tail)
+    lines = _intro_section(s, source, truncated_tail, planned)
     lines += _rate_sections(s, plot_of)
     lines += _failure_section(s, plot_of)
     lines += _distribution_section(s, plot_of)
@@ -512,7 +517,7 @@ def render_markdown(s: Summary, *, source: str = "results.jsonl", plots: Sequenc
     return "\n".join(lines) + "\n"
 
 
-def _intro_section(s: Summary, source: str, truncated_tail: bool) -> list[str]:
+def _intro_section(s: Summary, source: str, truncated_tail: bool, planned: int | None = None) -> list[str]:
     lines = ["# navstack trial report", ""]
     lines.append(
         f"Source: `{source}`, {s.n_trials} trials; {len(s.methods)} method(s) (controller/planner), "
@@ -520,6 +525,9 @@ def _intro_section(s: Summary, source: str, truncated_tail: bool) -> list[str]:
         "level(s). A success is every goal reached in order, with no contact, within the world's time limit. "
         "Intervals are 95 % Wilson score intervals. Trials ending in `error` (the trial crashed or exceeded its "
         f"wall-clock limit: {s.errors} here) count as failures.")
+    if planned is not None and planned > s.n_trials:
+        lines += ["", f"**Note: the sweep is unfinished**: {s.n_trials} of the {planned} trials its `sweep.json` "
+                  "lists are recorded; the rates below cover those only. Rerun the sweep's command to finish it."]
     if truncated_tail:
         lines += ["", "Note: the last line of the results file was cut short (a killed sweep) and is ignored; "
                   "resume the sweep to rerun that trial."]
@@ -755,7 +763,7 @@ def write_report(directory: str | Path, *, plots: bool = True) -> Path:
     summary = summarize(loaded.records, checked=True)  # load_results has checked every line
     pngs = write_plots(summary, directory / PLOTS_DIR) if plots else []
     text = render_markdown(summary, plots=[f"{PLOTS_DIR}/{p.name}" for p in pngs],
-                           truncated_tail=loaded.truncated_tail)
+                           truncated_tail=loaded.truncated_tail, planned=loaded.planned)
     out = directory / "report.md"
     out.write_text(text, encoding="utf-8")
     return out
