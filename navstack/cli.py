@@ -483,6 +483,15 @@ def _add_robot_commands(sub: Any) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """The ``navstack`` command; returns its exit status (module docstring)."""
+    try:
+        return _main(argv)
+    except KeyboardInterrupt:  # before a command began: while the parser or the simulator's modules load
+        print("navstack: interrupted", file=sys.stderr)
+        return 130
+
+
+def _main(argv: list[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     from navstack.trial import TrialInputError

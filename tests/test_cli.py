@@ -161,3 +161,16 @@ def test_run_and_demo_print_why_a_planner_gave_up(capsys):
     finally:
         log.handlers[:] = before[0]
         log.setLevel(before[1])
+
+
+def test_ctrl_c_before_the_command_begins_is_interrupted_not_a_traceback(capsys, monkeypatch):
+    """Ctrl-C while the parser or the simulator's modules load printed a traceback and exited -2 (an audit,
+    session 29); it is 'interrupted' and 130, as during a command."""
+    import navstack.cli as cli
+
+    def interrupted():
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "build_parser", interrupted)
+    assert main(["model"]) == 130
+    assert capsys.readouterr().err == "navstack: interrupted\n"
