@@ -104,6 +104,37 @@ def test_running_out_of_time_while_retracting_is_a_timeout(tmp_path):
     assert json.loads((tmp_path / "result.json").read_text())["retracted"] is False
 
 
+LOOP = [(2.2, 1.1668), (2.45, 1.4168), (2.2, 1.6668), (1.95, 1.4168), (1.82, 1.1968), (1.9, 1.0168)]
+"""Goals (x, z) [m] at y = 0.1079 of a way in that loops back past the tip's start (an audit, session 29)."""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("time_limit", "retracted"), [(50.0, False), (90.0, True)])
+def test_a_way_in_that_passes_near_the_start_is_backed_out_of_whole(tmp_path, time_limit, retracted):
+    """The tip backing out along a looped way in passes within 0.02 m of its start after 0.14 m of 1.96 m: that
+    once ended the retraction (``retracted: true``, a success) with every joint point still 0.3-1.8 m in.  The
+    whole path must be backed out of: 50 s is too short for that (a timeout), 90 s is enough, and then every
+    joint point is back where it started (recomputed from the measured joints)."""
+    from navstack.generate.base import robot_dict
+
+    data = {"format": "navstack-world/1", "name": "loop-retract", "robot": robot_dict(), "obstacles": [],
+            "goals": [{"position": [x, 0.1079, z], "tolerance": 0.02} for x, z in LOOP],
+            "time_limit": time_limit, "retract": True}
+    world = world_from_dict(data)
+    r = run_trial(world, planner="scripted", out_dir=tmp_path)
+    assert r.goals_reached == len(LOOP) and r.retracted is retracted and r.success is retracted
+    assert r.reason == ("reached" if retracted else "timeout")
+    q = np.load(tmp_path / "trajectory.npz")["q"]
+    deepest = max(np.linalg.norm(_backbone_world(world, qk) - _backbone_world(world, q[0]), axis=1).max()
+                  for qk in q)
+    moved = np.linalg.norm(_backbone_world(world, q[-1]) - _backbone_world(world, q[0]), axis=1)
+    assert deepest > 1.0  # the way in went deep
+    if retracted:
+        assert moved.max() < 0.03  # every joint point (and the tip) back where it started
+    else:
+        assert moved.max() > 0.3  # still in when time ran out
+
+
 def test_worlds_without_retract_write_no_retracted_field(tmp_path):
     data = paper_truss_world(time_limit=2.0)
     r = run_trial(world_from_dict(data), planner="scripted", out_dir=tmp_path)
