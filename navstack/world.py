@@ -67,6 +67,10 @@ a module constant):
   between two control steps is seen;
 * at most :data:`MAX_OBSTACLES` (10000) obstacles and :data:`MAX_GOALS` (1000) goals; ``extra`` nested at
   most :data:`MAX_EXTRA_DEPTH` (64) levels deep;
+* a mesh: at most :data:`MAX_MESH_VERTICES` (131072) vertices and :data:`MAX_MESH_TRIANGLES` (174762)
+  triangles (PyBullet's own limits for one shape), at least one triangle of non-zero area; at most
+  :data:`MAX_TOTAL_TRIANGLES` (1000000) triangles over all the mesh obstacles of a world (each is its own
+  body, so a file named twice counts twice);
 * the file: a regular file (not a directory, FIFO or device) of at most :data:`MAX_WORLD_BYTES` (64 MiB;
   ``load_world(path, max_bytes=...)`` raises it), checked before it is parsed.
 
@@ -145,6 +149,13 @@ MIN_MESH_SCALE = 1e-4
 """The smallest mesh ``scale``."""
 MAX_MESH_SCALE = 1e4
 """The largest mesh ``scale``."""
+MAX_MESH_VERTICES = 131_072
+"""The most vertices of one mesh: PyBullet's ``createCollisionShape`` refuses more (measured, an audit)."""
+MAX_MESH_TRIANGLES = 174_762
+"""The most triangles of one mesh: PyBullet's 524,288 indices per shape, over 3 (measured, an audit)."""
+MAX_TOTAL_TRIANGLES = 1_000_000
+"""The most triangles over all the mesh obstacles of a world: PyBullet keeps a collision and a visual shape per
+body, about 400 bytes per triangle (an audit: 100 copies of an 82,000-triangle file took 3.2 GB; 250, a crash)."""
 MAX_TIME_LIMIT = 3600.0
 """Seconds: the largest ``time_limit`` (one simulated hour, about 10 minutes of wall clock)."""
 MAX_MOTION_TIME = 1e6
@@ -818,7 +829,29 @@ def _mesh_triangles(ctx: _Ctx, path: str, file: Path) -> tuple[FloatArray, NDArr
                               f"(empty or unreadable by trimesh)")
     if not np.all(np.isfinite(v)):
         raise ctx.error(path, f"expected finite vertex coordinates, {file} has NaN/inf vertices")
+    if len(v) > MAX_MESH_VERTICES or len(f) > MAX_MESH_TRIANGLES:
+        raise ctx.error(path, f"expected at most {MAX_MESH_VERTICES} vertices and {MAX_MESH_TRIANGLES} triangles "
+                              f"(PyBullet's limits for one shape), {file} has {len(v)} and {len(f)}")
+    e1, e2 = v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]
+    if not (np.abs(np.cross(e1, e2)).max() > 0.0):
+        raise ctx.error(path, f"expected a mesh with a triangle of non-zero area, every triangle of {file} is "
+                              f"degenerate (no surface to collide with)")
     return v, f
+
+
+def _check_total_triangles(ctx: _Ctx, path: str, obstacles: tuple[Any, ...]) -> None:
+    """At most :data:`MAX_TOTAL_TRIANGLES` over the mesh obstacles (each counted, a file named twice twice).  A mesh
+    that cannot be read is not counted: its own error comes where it is read (a file parsed has been read)."""
+    total = 0
+    for o in obstacles:
+        if isinstance(o, Mesh):
+            try:
+                total += len(o.triangles()[1])
+            except WorldError:
+                continue
+    if total > MAX_TOTAL_TRIANGLES:
+        raise ctx.error(path, f"expected at most {MAX_TOTAL_TRIANGLES} mesh triangles in all (each mesh obstacle "
+                              f"is its own body), got {total}")
 
 
 Obstacle = Union[Cylinder, Box, Sphere, Mesh]  # noqa: UP007 - a runtime alias usable in isinstance
@@ -875,6 +908,7 @@ class World(_ValueEq):
             if not isinstance(o, (Cylinder, Box, Sphere, Mesh)):
                 raise c.error(f"World.obstacles[{i}]", f"expected a Cylinder, Box, Sphere or Mesh, "
                                                        f"got {_describe(o)}")
+        _check_total_triangles(c, "World.obstacles", obstacles)
         goals = tuple(self.goals)
         if not goals:
             raise c.error("World.goals", "expected at least one goal, got none")
@@ -1101,6 +1135,7 @@ def world_from_dict(data: Any, source: str | os.PathLike[str] | None = None, *,
     robot = _parse_robot(ctx, "robot", d["robot"])
     obstacles = tuple(_parse_obstacle(ctx, f"obstacles[{i}]", o)
                       for i, o in enumerate(_array(ctx, "obstacles", d["obstacles"], MAX_OBSTACLES, "obstacles")))
+    _check_total_triangles(ctx, "obstacles", obstacles)
     goals_raw = _array(ctx, "goals", d["goals"], MAX_GOALS, "goals")
     if len(goals_raw) == 0:
         raise ctx.error("goals", "expected at least one goal, got an empty array")

@@ -8,6 +8,11 @@ memory never see the world's obstacles.
 2. Their constructors take no world, scene, obstacle or simulator client
    (names, annotations, no ``*args``/``**kwargs`` escape hatch), and passing
    a World where they expect their own inputs is a ``TypeError``.
+3. At run time, after a trial's steps, nothing reachable from its planner,
+   controller or estimator (attributes, containers, bound methods, closures) is
+   a world, an obstacle, the scene, the robot body, a PyBullet client or a
+   simulator module: 1 and 2 cannot see an object that ``trial.py`` hands over
+   (an audit showed a scene attached to the planner passing them).
 
 The package ``navstack/__init__.py`` re-exports ``run_trial`` and ``load_world``
 for users; it is not part of the scanned core (importing a core module runs
@@ -293,3 +298,67 @@ def test_importing_the_core_loads_no_simulator() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "", f"importing the core loaded: {out.stdout.strip()}"
+
+
+# ---- 3. what the pipeline objects can reach at run time
+
+
+def _reachable(root, limit: int = 500_000):
+    """Every object reachable from ``root`` by references (``gc.get_referents``), functions through their
+    closures and defaults (not their module globals, which reach everything), modules not entered."""
+    import gc
+    import types
+
+    seen, todo = set(), [root]
+    while todo and len(seen) < limit:
+        o = todo.pop()
+        if id(o) in seen or isinstance(o, (type, str, bytes, int, float, bool, types.BuiltinFunctionType)):
+            continue
+        seen.add(id(o))
+        yield o
+        if isinstance(o, types.ModuleType) or (isinstance(o, np.ndarray) and o.dtype != object):
+            continue
+        if isinstance(o, types.FunctionType):
+            todo.extend(c.cell_contents for c in (o.__closure__ or ()) if c.cell_contents is not None)
+            todo.extend(o.__defaults__ or ())
+            todo.extend((o.__kwdefaults__ or {}).values())
+            continue
+        todo.extend(gc.get_referents(o))
+
+
+def _leaks(sim) -> list[str]:
+    import types
+
+    from navstack.sim.scene import Scene
+    from navstack.world import Box, Cylinder, Mesh, Sphere, World
+
+    bad = (World, Cylinder, Box, Sphere, Mesh, Scene, type(sim.client), type(sim.body))
+    found = []
+    for name in ("planner", "controller", "estimator"):
+        root = getattr(sim, name)
+        if root is None:
+            continue
+        for o in _reachable(root):
+            if isinstance(o, bad) or (isinstance(o, types.ModuleType) and o.__name__.startswith(
+                    ("pybullet", "navstack.sim", "navstack.world", "navstack.trial"))):
+                found.append(f"{name} reaches a {type(o).__name__}")
+                break
+    return found
+
+
+@pytest.mark.parametrize("planner", ["field", "reactive", "scripted"])
+def test_nothing_of_the_simulation_is_reachable_from_the_pipeline_after_a_trial(planner):
+    from navstack.trial import TrialConfig, _Simulation
+    from navstack.world import load_world, world_from_dict
+
+    data = load_world(PKG.parent / "worlds" / "truss_clutter.json").to_dict()
+    data["time_limit"] = 1.0  # 30 control steps: the pipeline objects hold their state of a running trial
+    sim = _Simulation(world_from_dict(data), "slither", planner, 0, TrialConfig())
+    try:
+        sim.run()
+        assert _leaks(sim) == []
+        sim.planner.hint = lambda: sim.scene.world  # the check itself: a closure over the simulation is seen
+        leaks = _leaks(sim)
+        assert leaks and leaks[0].startswith("planner reaches a "), leaks
+    finally:
+        sim.close()

@@ -427,6 +427,49 @@ def test_a_cylinder_longer_than_1_km_is_refused_at_its_p1(valid, spec_file):
         Cylinder(p0=[-600.0, 0.0, 0.0], p1=[600.0, 0.0, 0.0], radius=0.1)
 
 
+def test_a_mesh_beyond_pybullets_limits_is_bad_input_naming_it(valid, spec_file, monkeypatch):
+    """A mesh of more vertices or triangles than PyBullet takes for one shape (131,072 / 174,762: an audit's
+    163,842-vertex sphere) was an internal error (exit 1) at the simulator; it is refused where it is named.
+    The bounds are lowered here so that a 42-vertex sphere crosses them."""
+    import navstack.world as world_module
+
+    trimesh.creation.icosphere(subdivisions=1).export(spec_file.parent / "parts" / "ball.stl")
+    valid["obstacles"][3]["path"] = "parts/ball.stl"
+    assert world_from_dict(valid, source=spec_file).obstacles[3].triangles()[1].shape == (80, 3)
+    monkeypatch.setattr(world_module, "MAX_MESH_VERTICES", 41)
+    with pytest.raises(WorldError, match=r"obstacles\[3\]\.path: expected at most 41 vertices and 174762 "
+                                         r"triangles \(PyBullet's limits for one shape\), .*ball\.stl has 42 and 80"):
+        world_from_dict(valid, source=spec_file)
+    monkeypatch.setattr(world_module, "MAX_MESH_VERTICES", 131_072)
+    monkeypatch.setattr(world_module, "MAX_MESH_TRIANGLES", 79)
+    with pytest.raises(WorldError, match=r"obstacles\[3\]\.path: .* has 42 and 80"):
+        world_from_dict(valid, source=spec_file)
+
+
+def test_the_triangles_of_all_meshes_together_are_bounded(valid, spec_file, monkeypatch):
+    """100 copies of an 82,000-triangle file took 3.2 GB and 250 crashed PyBullet (an audit): each mesh obstacle
+    is its own body.  A world's mesh triangles are counted together, a file named twice twice (lowered bound)."""
+    import navstack.world as world_module
+
+    valid["obstacles"] += [dict(valid["obstacles"][3]), dict(valid["obstacles"][3])]  # the 12-triangle box, x3
+    assert len(world_from_dict(valid, source=spec_file).obstacles) == 6
+    monkeypatch.setattr(world_module, "MAX_TOTAL_TRIANGLES", 35)
+    with pytest.raises(WorldError, match=r"obstacles: expected at most 35 mesh triangles in all .*got 36"):
+        world_from_dict(valid, source=spec_file)
+    with pytest.raises(WorldError, match=r"World\.obstacles: expected at most 35 mesh triangles"):
+        World(name="w", robot=RobotSpec(), obstacles=(Mesh(path=spec_file.parent / "parts" / "node.stl"),) * 3,
+              goals=(Goal(position=[1, 0, 1]),))
+
+
+def test_a_mesh_of_only_degenerate_triangles_is_refused(valid, spec_file):
+    """Zero-area triangles only (an audit's file passed as 'ok'): no surface to collide with."""
+    (spec_file.parent / "parts" / "flat.obj").write_text(
+        "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nv 0 2 0\nf 1 2 3\nf 1 4 5\n")
+    valid["obstacles"][3]["path"] = "parts/flat.obj"
+    with pytest.raises(WorldError, match=r"obstacles\[3\]\.path: expected a mesh with a triangle of non-zero area"):
+        world_from_dict(valid, source=spec_file)
+
+
 def test_scaled_mesh_extent_is_bounded(valid, spec_file):
     write_stl(spec_file.parent / "parts" / "big.stl", extents=(10.0, 10.0, 10.0))
     valid["obstacles"][3].update(path="parts/big.stl", scale=300.0)  # vertices 1500 m from the origin
