@@ -212,8 +212,9 @@ def _check_world(args: argparse.Namespace) -> int:
             status = EXIT_BAD_INPUT
             continue
         moving = sum(getattr(o, "motion", None) is not None for o in w.obstacles)
-        _warn_blocked_goals(f"navstack check-world: {path}", w)
-        print(f"{path}: ok ({_shown(w.name)}: {len(w.obstacles)} obstacles{f' ({moving} moving)' if moving else ''}, "
+        _warn_blocked_goals(f"navstack check-world: {_shown(path)}", w)
+        movers = f" ({moving} moving)" if moving else ""
+        print(f"{_shown(path)}: ok ({_shown(w.name)}: {len(w.obstacles)} obstacles{movers}, "
               f"{len(w.goals)} goals, time limit {w.time_limit:g} s, robot clear of every obstacle at t = 0)")
     return status
 
@@ -352,7 +353,10 @@ def _urdf(args: argparse.Namespace) -> int:
     if args.out is None:
         sys.stdout.write(text)
         return EXIT_OK
-    Path(args.out).write_text(text, encoding="utf-8")
+    try:
+        Path(args.out).write_text(text, encoding="utf-8")
+    except OSError as exc:
+        raise BadInput(f"--out: cannot write {args.out}: {exc.strerror or exc}") from exc
     print(f"wrote {args.out} (20 joints, links dh0..dh21; PyBullet: loadURDF(..., useFixedBase=True, "
           "flags=URDF_USE_INERTIA_FROM_FILE | URDF_USE_IMPLICIT_CYLINDER))")
     return EXIT_OK

@@ -198,7 +198,7 @@ class SweepConfig:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "families", tuple(self.families))
-        object.__setattr__(self, "difficulties", tuple(float(d) for d in self.difficulties))
+        object.__setattr__(self, "difficulties", tuple(float(d) + 0.0 for d in self.difficulties))  # -0.0 -> 0.0
         object.__setattr__(self, "controllers", tuple(self.controllers))
         object.__setattr__(self, "planners", tuple(self.planners))
         if bool(self.families) == (self.worlds_dir is not None):

@@ -174,3 +174,23 @@ def test_ctrl_c_before_the_command_begins_is_interrupted_not_a_traceback(capsys,
     monkeypatch.setattr(cli, "build_parser", interrupted)
     assert main(["model"]) == 130
     assert capsys.readouterr().err == "navstack: interrupted\n"
+
+
+def test_urdf_to_an_unwritable_path_is_bad_input_naming_it(capsys, tmp_path):
+    """A write error named neither the option nor the file (an audit: '[Errno 28] No space left on device')."""
+    assert main(["urdf", "--out", str(tmp_path)]) == 2  # a directory
+    err = capsys.readouterr().err
+    assert err.startswith(f"navstack urdf: error: --out: cannot write {tmp_path}: ")
+
+
+def test_check_world_shows_a_file_name_with_control_characters_escaped(capsys, tmp_path):
+    """A file name holding a terminal escape sequence was echoed raw (an audit); it is shown escaped."""
+    from pathlib import Path
+
+    folder = tmp_path / "odd\x1b[31m"
+    folder.mkdir()
+    world = folder / "w.json"
+    world.write_text((Path(navstack.__file__).parents[1] / "worlds" / "u_trap.json").read_text())
+    assert main(["check-world", str(world)]) == 0
+    out = capsys.readouterr().out
+    assert "\x1b" not in out and "odd\\x1b[31m" in out and ": ok (u-trap:" in out

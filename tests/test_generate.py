@@ -88,6 +88,12 @@ def test_bad_arguments_raise_value_error_naming_the_argument(args, word):
         generate_world(*args)
 
 
+def test_negative_zero_difficulty_is_zero():
+    """``--difficulty -0.0`` wrote the world of 0 named ``...-d-0.00`` (an audit)."""
+    w = generate_world("truss", 1, -0.0)
+    assert w.name == "truss-s0001-d0.00" and w.to_dict() == generate_world("truss", 1, 0.0).to_dict()
+
+
 def test_names():
     assert world_name("truss", 12, 0.5) == "truss-s0012-d0.50"
     assert world_name("pipe-rack", 3, 0.125) == "pipe-rack-s0003-d0.125"

@@ -37,7 +37,7 @@ def check_args(family: Any, seed: Any, difficulty: Any) -> tuple[str, int, float
     number = isinstance(difficulty, real) and not isinstance(difficulty, bool)
     if not (number and math.isfinite(float(difficulty)) and 0.0 <= float(difficulty) <= 1.0):
         raise ValueError(f"difficulty must be a number in [0, 1], got {difficulty!r}")
-    return family, int(seed), float(difficulty)
+    return family, int(seed), float(difficulty) + 0.0  # -0.0 is 0.0 (it named worlds "d-0.00")
 
 
 def world_name(family: str, seed: int, difficulty: float) -> str:
