@@ -208,7 +208,7 @@ def _check_world(args: argparse.Namespace) -> int:
             check_reach(w)
             check_start(w)
         except WorldError as exc:
-            print(f"navstack check-world: error: {exc}", file=sys.stderr)
+            print(f"navstack check-world: error: {_shown(str(exc))}", file=sys.stderr)
             status = EXIT_BAD_INPUT
             continue
         moving = sum(getattr(o, "motion", None) is not None for o in w.obstacles)

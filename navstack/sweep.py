@@ -579,9 +579,14 @@ def _differences(stored: Any, wanted: dict[str, Any]) -> str:
     """What differs between a stored trial and a requested one, key by key (each value cut to 80 characters)."""
     if not isinstance(stored, dict):
         return f"stored {stored!r:.160} vs requested {wanted!r:.160}"
+    absent = object()
+
+    def shown(v: Any) -> str:
+        return "absent" if v is absent else f"{v!r:.80}"
+
     keys = sorted(set(stored) | set(wanted), key=str)
-    diff = [f"{k}: stored {stored.get(k)!r:.80}, requested {wanted.get(k)!r:.80}" for k in keys
-            if stored.get(k) != wanted.get(k)]
+    diff = [f"{k}: stored {shown(stored.get(k, absent))}, requested {shown(wanted.get(k, absent))}" for k in keys
+            if stored.get(k, absent) != wanted.get(k, absent)]
     return "; ".join(diff)
 
 
@@ -591,13 +596,27 @@ def _world_hashes(specs: Sequence[TrialSpec]) -> dict[str, str | None]:
     out: dict[str, str | None] = {}
     for spec in specs:
         if not spec.generated and spec.world_file not in out:
-            text = _read_bytes(Path(spec.world_file))
-            out[spec.world_file] = None if text is None else hashlib.sha256(text).hexdigest()
+            out[spec.world_file] = _sha256(Path(spec.world_file))
+            text = _read_bytes(Path(spec.world_file)) if out[spec.world_file] is not None else None
             for mesh in _mesh_files(Path(spec.world_file), text):
                 if str(mesh) not in out:
-                    data = _read_bytes(mesh)
-                    out[str(mesh)] = None if data is None else hashlib.sha256(data).hexdigest()
+                    out[str(mesh)] = _sha256(mesh)
     return out
+
+
+def _sha256(path: Path) -> str | None:
+    """SHA-256 of a regular file, read in chunks (None: not a regular file, or unreadable; a FIFO or a device is
+    not read: the trial refuses it with its own message)."""
+    try:
+        if not path.is_file():
+            return None
+        digest = hashlib.sha256()
+        with path.open("rb") as fh:
+            for chunk in iter(lambda: fh.read(1 << 20), b""):
+                digest.update(chunk)
+        return digest.hexdigest()
+    except OSError:
+        return None
 
 
 def _read_bytes(path: Path) -> bytes | None:

@@ -56,7 +56,8 @@ from navstack.world import Mesh, WorldError
 
 REASONS = ("reached", "collision", "timeout", "stalled", "joint_limit", "error")
 RETRACT_TOLERANCE = 0.02
-"""A retraction is complete when the actual tip is this close [m] to where it was at t = 0 (spec 2a)."""
+"""A retraction is complete when the retreat's command has come back along the whole recorded path to within this
+[m] of its start and the actual tip is this close [m] to where it was at t = 0 (spec 2a; ``_retracted``)."""
 
 
 @dataclass(frozen=True)

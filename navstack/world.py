@@ -812,6 +812,18 @@ def _load_triangles_cached(path: str, mtime_ns: int, size: int) -> tuple[FloatAr
     return v, f
 
 
+@lru_cache(maxsize=4096)
+def _mesh_facts(path: str, mtime_ns: int, size: int) -> tuple[int, int, bool, bool]:
+    """``(vertices, triangles, all vertices finite, some triangle of non-zero area)`` of a mesh file, computed
+    once per file version (the checks of every load and the world's triangle count ask for them)."""
+    v, f = _load_triangles_cached(path, mtime_ns, size)
+    finite = bool(np.all(np.isfinite(v)))
+    area = False
+    if len(f) and finite:
+        area = bool(np.abs(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])).max() > 0.0)
+    return len(v), len(f), finite, area
+
+
 def _mesh_triangles(ctx: _Ctx, path: str, file: Path) -> tuple[FloatArray, NDArray[np.int32]]:
     try:
         st = file.stat()
@@ -821,19 +833,19 @@ def _mesh_triangles(ctx: _Ctx, path: str, file: Path) -> tuple[FloatArray, NDArr
         raise ctx.error(path, f"expected a mesh file, {file} is not a regular file")
     try:
         v, f = _load_triangles_cached(str(file), st.st_mtime_ns, st.st_size)
+        n_v, n_f, finite, area = _mesh_facts(str(file), st.st_mtime_ns, st.st_size)
     except Exception as e:  # trimesh raises many kinds (ValueError, NotImplementedError, KeyError, ...)
         raise ctx.error(path, f"expected a mesh file trimesh can read, {file}: "
                               f"{type(e).__name__}: {e}") from e
-    if len(f) == 0 or len(v) == 0:
+    if n_f == 0 or n_v == 0:
         raise ctx.error(path, f"expected a mesh with at least one triangle, {file} has none "
                               f"(empty or unreadable by trimesh)")
-    if not np.all(np.isfinite(v)):
+    if not finite:
         raise ctx.error(path, f"expected finite vertex coordinates, {file} has NaN/inf vertices")
-    if len(v) > MAX_MESH_VERTICES or len(f) > MAX_MESH_TRIANGLES:
+    if n_v > MAX_MESH_VERTICES or n_f > MAX_MESH_TRIANGLES:
         raise ctx.error(path, f"expected at most {MAX_MESH_VERTICES} vertices and {MAX_MESH_TRIANGLES} triangles "
-                              f"(PyBullet's limits for one shape), {file} has {len(v)} and {len(f)}")
-    e1, e2 = v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]
-    if not (np.abs(np.cross(e1, e2)).max() > 0.0):
+                              f"(PyBullet's limits for one shape), {file} has {n_v} and {n_f}")
+    if not area:
         raise ctx.error(path, f"expected a mesh with a triangle of non-zero area, every triangle of {file} is "
                               f"degenerate (no surface to collide with)")
     return v, f
@@ -846,12 +858,17 @@ def _check_total_triangles(ctx: _Ctx, path: str, obstacles: tuple[Any, ...]) -> 
     for o in obstacles:
         if isinstance(o, Mesh):
             try:
-                total += len(o.triangles()[1])
-            except WorldError:
+                if not o.path.is_file():
+                    continue  # (a FIFO would block the read)
+                st = o.path.stat()
+                total += _mesh_facts(str(o.path), st.st_mtime_ns, st.st_size)[1]
+            except Exception:  # noqa: BLE001 - unreadable: its own error comes where it is read
                 continue
+            if total > MAX_TOTAL_TRIANGLES:
+                break
     if total > MAX_TOTAL_TRIANGLES:
         raise ctx.error(path, f"expected at most {MAX_TOTAL_TRIANGLES} mesh triangles in all (each mesh obstacle "
-                              f"is its own body), got {total}")
+                              f"is its own body), got at least {total}")
 
 
 Obstacle = Union[Cylinder, Box, Sphere, Mesh]  # noqa: UP007 - a runtime alias usable in isinstance

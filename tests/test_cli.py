@@ -194,3 +194,6 @@ def test_check_world_shows_a_file_name_with_control_characters_escaped(capsys, t
     assert main(["check-world", str(world)]) == 0
     out = capsys.readouterr().out
     assert "\x1b" not in out and "odd\\x1b[31m" in out and ": ok (u-trap:" in out
+    assert main(["check-world", str(folder / "missing.json")]) == 2  # the error line too (a review)
+    err = capsys.readouterr().err
+    assert "\x1b" not in err and "odd\\x1b[31m" in err

@@ -960,6 +960,28 @@ def test_a_sweep_whose_mesh_file_changed_is_not_resumed(tmp_path):
     assert run_sweep(specs[:1], out, jobs=1, runner=fake_runner, progress=False).skipped == 1
 
 
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
+def test_a_mesh_path_that_is_a_fifo_is_not_read_when_hashing(tmp_path):
+    """Hashing read every mesh path a world names: a FIFO blocked the sweep before any check (a review)."""
+    folder = write_worlds(tmp_path / "in", 1)
+    os.mkfifo(folder / "pipe.stl")
+    doc = json.loads((folder / "w00.json").read_text())
+    doc["obstacles"] = [{"type": "mesh", "path": "pipe.stl"}]
+    (folder / "w00.json").write_text(json.dumps(doc))
+    specs = build_specs(SweepConfig(worlds_dir=str(folder)))
+    found: dict = {}
+    worker = threading.Thread(target=lambda: found.update(sweep._world_hashes(specs)), daemon=True)
+    worker.start()
+    worker.join(10.0)
+    assert not worker.is_alive(), "hashing blocked on the FIFO"
+    assert found[str((folder / "pipe.stl").resolve())] is None and len(found[str(folder / "w00.json")]) == 64
+
+
+def test_a_field_absent_from_one_trial_is_named_as_absent():
+    """A key missing on one side and None on the other compared equal, leaving the refusal naming nothing."""
+    assert sweep._differences({"a": 1, "world_seed": None}, {"a": 1}) == "world_seed: stored None, requested absent"
+
+
 def test_a_different_sweep_is_refused_naming_what_differs(tmp_path):
     """The refusal names the fields of the first trial that differ (it once cut both trials to 160 characters,
     which hid the seed a user had changed)."""

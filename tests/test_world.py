@@ -454,7 +454,7 @@ def test_the_triangles_of_all_meshes_together_are_bounded(valid, spec_file, monk
     valid["obstacles"] += [dict(valid["obstacles"][3]), dict(valid["obstacles"][3])]  # the 12-triangle box, x3
     assert len(world_from_dict(valid, source=spec_file).obstacles) == 6
     monkeypatch.setattr(world_module, "MAX_TOTAL_TRIANGLES", 35)
-    with pytest.raises(WorldError, match=r"obstacles: expected at most 35 mesh triangles in all .*got 36"):
+    with pytest.raises(WorldError, match=r"obstacles: expected at most 35 mesh triangles in all .*got at least 36"):
         world_from_dict(valid, source=spec_file)
     with pytest.raises(WorldError, match=r"World\.obstacles: expected at most 35 mesh triangles"):
         World(name="w", robot=RobotSpec(), obstacles=(Mesh(path=spec_file.parent / "parts" / "node.stl"),) * 3,

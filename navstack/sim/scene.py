@@ -389,19 +389,8 @@ class Scene(MoverSweeps):
                 out = min(sharp, float(mesh))
                 break
         if self._large:
-            out = min(out, self._large_exact(robot_id, dmax, robot_capsules, bodies, bound))
+            out = min(out, _large_exact(self, robot_id, dmax, robot_capsules, bodies, bound))
         return out
-
-    def _large_exact(self, robot_id: int, dmax: float, capsules: Capsules | None, bodies: Sequence[int],
-                     bound: Sequence[float]) -> float:
-        """The exact distance (m) from the robot's capsules to the primitives of the bodies larger than
-        :data:`LARGE_EXTENT` (whose lower ``bound`` is below ``dmax``), or ``dmax`` (also for a robot not made of
-        capsules, whose other shapes only PyBullet measures)."""
-        large = [b for b, g in zip(bodies, bound, strict=True) if b in self._large and g < dmax]
-        if not large or not self._all_capsules(robot_id):
-            return dmax
-        caps = capsules if capsules is not None else _link_capsules(self.client, robot_id, self._capsules)
-        return min((d for _, d in self._exact_distances(caps, large, dmax)), default=dmax)
 
     def _sharpen(self, robot_id: int, best: float, exact_below: float, capsules: Capsules | None,
                  bodies: Sequence[int], bound: Sequence[float] | None = None) -> float:
@@ -573,6 +562,18 @@ def _link_capsules(client: Any, body: int, cache: dict[int, list[tuple[int, np.n
         b.append(rot.apply(lb) + pos)
         r.append(radius)
     return np.array(a).reshape(-1, 3), np.array(b).reshape(-1, 3), np.array(r, dtype=np.float64)
+
+
+def _large_exact(scene: Scene, robot_id: int, dmax: float, capsules: Capsules | None, bodies: Sequence[int],
+                 bound: Sequence[float]) -> float:
+    """The exact distance (m) from the robot's capsules to the primitives of ``scene``'s bodies larger than
+    :data:`LARGE_EXTENT` (whose lower ``bound`` is below ``dmax``), or ``dmax`` (also for a robot not made of
+    capsules, whose other shapes only PyBullet measures)."""
+    large = [b for b, g in zip(bodies, bound, strict=True) if b in scene._large and g < dmax]
+    if not large or not scene._all_capsules(robot_id):
+        return dmax
+    caps = capsules if capsules is not None else _link_capsules(scene.client, robot_id, scene._capsules)
+    return min((d for _, d in scene._exact_distances(caps, large, dmax)), default=dmax)
 
 
 def _larger_than(o: Any, size: float) -> bool:
