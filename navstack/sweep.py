@@ -593,20 +593,30 @@ def _differences(stored: Any, wanted: dict[str, Any]) -> str:
 def _world_hashes(specs: Sequence[TrialSpec]) -> dict[str, str | None]:
     """SHA-256 of each world file the trials read (``--worlds``; None: unreadable), by path, and of each mesh file
     such a world names (by its resolved path): a mesh changed between two runs of a sweep changes its world."""
+    from navstack.world import named_mesh_files
+
     out: dict[str, str | None] = {}
     for spec in specs:
         if not spec.generated and spec.world_file not in out:
-            out[spec.world_file] = _sha256(Path(spec.world_file))
-            text = _read_bytes(Path(spec.world_file)) if out[spec.world_file] is not None else None
-            for mesh in _mesh_files(Path(spec.world_file), text):
+            text = _read_regular(Path(spec.world_file))
+            out[spec.world_file] = None if text is None else hashlib.sha256(text).hexdigest()
+            for mesh in named_mesh_files(text, spec.world_file):
                 if str(mesh) not in out:
                     out[str(mesh)] = _sha256(mesh)
     return out
 
 
+def _read_regular(path: Path) -> bytes | None:
+    """The bytes of a regular file (None: not one, or unreadable: a FIFO or a device is not read, the trial refuses
+    it with its own message)."""
+    try:
+        return path.read_bytes() if path.is_file() else None
+    except OSError:
+        return None
+
+
 def _sha256(path: Path) -> str | None:
-    """SHA-256 of a regular file, read in chunks (None: not a regular file, or unreadable; a FIFO or a device is
-    not read: the trial refuses it with its own message)."""
+    """SHA-256 of a regular file, read in chunks (None as :func:`_read_regular`)."""
     try:
         if not path.is_file():
             return None
@@ -617,33 +627,6 @@ def _sha256(path: Path) -> str | None:
         return digest.hexdigest()
     except OSError:
         return None
-
-
-def _read_bytes(path: Path) -> bytes | None:
-    try:
-        return path.read_bytes()
-    except OSError:
-        return None
-
-
-def _mesh_files(world_file: Path, text: bytes | None) -> list[Path]:
-    """The mesh files a world file's obstacles name, resolved against its folder (none if it cannot be parsed:
-    its trials end in an ``error`` line anyway)."""
-    try:
-        obstacles = json.loads(text)["obstacles"] if text is not None else []
-    except (ValueError, TypeError, KeyError, RecursionError):
-        return []
-    if not isinstance(obstacles, list):
-        return []
-    paths = [o["path"] for o in obstacles if isinstance(o, dict) and o.get("type") == "mesh"
-             and isinstance(o.get("path"), str)]
-    out = []
-    for p in paths:
-        try:
-            out.append((world_file.parent / p).resolve())
-        except (OSError, RuntimeError, ValueError):
-            continue
-    return out
 
 
 def _check_world_hashes(sweep_path: Path, stored: Any, now: dict[str, str | None]) -> None:

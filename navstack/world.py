@@ -1033,6 +1033,30 @@ def _parse_motion(ctx: _Ctx, path: str, v: Any) -> Motion:
     return OscillateMotion(axis=axis, amplitude=amplitude, period=period, phase=phase)
 
 
+def _resolved_mesh(file: Path, base_dir: Path | None) -> Path:
+    """A mesh path (``~`` already expanded) as the loader reads it: relative to ``base_dir`` (else the working
+    folder), resolved."""
+    return ((base_dir or Path.cwd()) / file).resolve()  # (an absolute ``file`` stays itself)
+
+
+def named_mesh_files(text: bytes | str | None, world_file: str | os.PathLike[str]) -> list[Path]:
+    """The mesh files that the obstacles of a world file's text name, resolved as :func:`load_world` resolves them
+    (nothing is checked or read; none if the text is not a world's JSON).  For callers that must know which
+    files a world depends on without loading it (a sweep's change detection)."""
+    try:
+        obstacles = json.loads(text)["obstacles"] if text is not None else []
+    except (ValueError, TypeError, KeyError, RecursionError):
+        return []
+    out = []
+    for o in obstacles if isinstance(obstacles, list) else ():
+        if isinstance(o, dict) and o.get("type") == "mesh" and isinstance(o.get("path"), str):
+            try:
+                out.append(_resolved_mesh(Path(o["path"]).expanduser(), Path(world_file).parent))
+            except (OSError, RuntimeError, ValueError):
+                continue
+    return out
+
+
 def _mesh_file(ctx: _Ctx, path: str, p: str) -> Path:
     """The resolved mesh file named by ``p``, refused if it leaves the world file's folder tree (unless
     ``ctx.allow_mesh_outside``, or the data has no file).  A leading ``~`` is the user's home folder (so a
@@ -1049,9 +1073,7 @@ def _mesh_file(ctx: _Ctx, path: str, p: str) -> Path:
                               f"{'home' if p.startswith('~') else 'absolute'} path "
                               f"{json.dumps(p)} (to use meshes outside it, pass --allow-mesh-outside / "
                               f"allow_mesh_outside=True)")
-    if not file.is_absolute():
-        file = (ctx.base_dir or Path.cwd()) / file
-    file = file.resolve()
+    file = _resolved_mesh(file, ctx.base_dir)
     if restrict and not file.is_relative_to(ctx.base_dir):
         raise ctx.error(path, f"expected a mesh inside the world file's folder {ctx.base_dir}, but "
                               f"{json.dumps(p)} leads to {file} (to use meshes outside it, pass "
@@ -1298,6 +1320,7 @@ __all__ = [
     "World",
     "WorldError",
     "load_world",
+    "named_mesh_files",
     "save_world",
     "world_from_dict",
 ]

@@ -427,6 +427,15 @@ def test_a_cylinder_longer_than_1_km_is_refused_at_its_p1(valid, spec_file):
         Cylinder(p0=[-600.0, 0.0, 0.0], p1=[600.0, 0.0, 0.0], radius=0.1)
 
 
+def test_named_mesh_files_are_the_files_the_loader_reads(spec_file):
+    """A sweep learns which mesh files a world depends on without loading it; the paths are the loader's."""
+    from navstack.world import named_mesh_files
+
+    loaded = [o.path for o in load_world(spec_file).obstacles if isinstance(o, Mesh)]
+    assert named_mesh_files(spec_file.read_bytes(), spec_file) == loaded and len(loaded) == 1
+    assert named_mesh_files(b"[1, 2]", spec_file) == [] and named_mesh_files(None, spec_file) == []
+
+
 def test_a_mesh_beyond_pybullets_limits_is_bad_input_naming_it(valid, spec_file, monkeypatch):
     """A mesh of more vertices or triangles than PyBullet takes for one shape (131,072 / 174,762: an audit's
     163,842-vertex sphere) was an internal error (exit 1) at the simulator; it is refused where it is named.
