@@ -16,7 +16,11 @@ sensing.  Here the field is descended along paths the tip can actually follow:
    surfaces, stopping at the plan's end;
 5. **escape** (:mod:`navstack.planner.escape`, run by :mod:`navstack.planner.recovery`): when no path leads
    on, back out along the tip's own path (reverse commands) to the point from which one does with the least
-   retreat plus plan cost, and go on from there; boxed in, wait for the map to change, and look back.
+   retreat plus plan cost, and go on from there; boxed in, wait for the map to change, and look back;
+6. **seen openings** (:mod:`navstack.planner.opening`): when the last reading's rays went far through a gap
+   ringed by sensed points towards the goal, a replan also searches through that gap, and keeps that plan
+   unless it costs more than ``OpeningConfig.cost_ratio`` times the other (a way round the unseen outside of a
+   structure looks free, and the tip commits to it before the walls appear).
 
 It never reads obstacle geometry: its inputs are the start, the goals, the robot's own tip state
 and the filtered sensor readings (tests/test_isolation.py).  Units: metres, seconds.
@@ -34,6 +38,7 @@ from navstack.estimate import RangeEstimate
 from navstack.path import PathMemory
 from navstack.planner.escape import EscapeConfig, Wait
 from navstack.planner.map import MapConfig, SensedMap
+from navstack.planner.opening import FarRays, OpeningConfig, far_rays, find_opening
 from navstack.planner.potential import NavigationFunction, Repulsion, navigation_function
 from navstack.planner.proximity import sets_closer_than
 from navstack.planner.recovery import Recovery
@@ -95,6 +100,7 @@ class FieldPlannerConfig:
     search: SearchConfig = field(default_factory=SearchConfig)
     steering: SteeringConfig = field(default_factory=SteeringConfig)
     escape: EscapeConfig = field(default_factory=EscapeConfig)
+    opening: OpeningConfig = field(default_factory=OpeningConfig)
     replan_period: float = 0.5
     horizon: float = 0.6
     ray_start: float = 0.03
@@ -130,14 +136,16 @@ def _vec3(v: ArrayLike, name: str) -> NDArray[np.float64]:
     return a.copy()
 
 
-def _fuse(smap: SensedMap, reading: RangeEstimate | None, ray_start: float) -> None:
+def _fuse(smap: SensedMap, reading: RangeEstimate | None,
+          ray_start: float) -> tuple[NDArray[np.float64], NDArray[np.bool_]] | None:
     """sense -> map: one filtered reading's rays into ``smap``, free from ``ray_start`` [m] (measured rays hit
     at their filtered range; a ray without a measurement is free up to the maximum range where the filter is
     not coasting).  A :attr:`~navstack.estimate.RangeEstimate.lagging` ray tells the map nothing this time:
     its estimate may lie in front of a rim it ran past, and its measurement, more than 2 stds from the
-    estimate, is as likely the noisiest of the reading (a noise std of 4 mm: 4.6 % of measured rays are)."""
+    estimate, is as likely the noisiest of the reading (a noise std of 4 mm: 4.6 % of measured rays are).
+    Returns the rays' ranges as fused [m] and which rays told the map something (None without a reading)."""
     if reading is None:
-        return
+        return None
     if not isinstance(reading, RangeEstimate):
         raise TypeError(f"reading must be a RangeEstimate (a filtered tip-sensor reading) or None, "
                         f"got {type(reading).__name__}")
@@ -150,6 +158,25 @@ def _fuse(smap: SensedMap, reading: RangeEstimate | None, ray_start: float) -> N
     ranges = np.where(measured, reading.ranges, max_range)
     informative = measured | (valid & ~tracking)
     smap.update(reading.origins, reading.directions, np.full(len(ranges), ray_start), ranges, measured, informative)
+    return ranges, informative
+
+
+def _passes(plan: Plan, point: NDArray[np.float64], within: float) -> bool:
+    """Whether ``plan``'s samples come within ``within`` [m] of ``point``."""
+    return bool(np.min(np.sum((plan.points - point) ** 2, axis=1)) <= within * within)
+
+
+def _without_via(via: Plan, k: int, goals: NDArray[np.float64]) -> Plan:
+    """A plan searched through a via point and then ``goals[k:]`` as a plan for ``goals`` from ``k`` on: its goal
+    indices shifted back (the via point counts as goal ``k`` not yet passed), and no stop on the via point."""
+    index = k + np.maximum(via.goal_index - 1, 0)
+    if len(via.stops):
+        at = np.array([via.state(s)[0] for s in via.stops])
+        on_goal = np.min(np.linalg.norm(at[:, None, :] - goals[None, k:, :], axis=2), axis=1) < 1e-6
+        stops = via.stops[on_goal]
+    else:
+        stops = via.stops
+    return replace(via, goal_index=index.astype(np.int64), stops=stops)
 
 
 class FieldPlanner(Recovery):
@@ -193,6 +220,8 @@ class FieldPlanner(Recovery):
         self._goal_retreats: dict[int, int] = {}
         self._deep_done: tuple[int, int] | None = None  # (goal, its escapes) of the last deeper search
         self.tight_plans = 0  # plans found only with FieldPlannerConfig.tight_margin
+        self._far: FarRays | None = None  # the last reading's far rays (seen openings)
+        self.opening_plans = 0  # plans kept through a seen opening
         self.follower = PlanFollower(self._plan_from(self.start, h / np.linalg.norm(h), 0), cfg.steering)
         self.goal_index = 0
         self.mode = "plan"
@@ -245,6 +274,8 @@ class FieldPlanner(Recovery):
         plan = attempt(scfg)
         if plan.status != REACHED and self._nav is not None and self._nav[1] != self.map.version:
             plan = attempt(scfg, fresh=True)  # the map has grown
+        if at is None:
+            plan = self._prefer_opening(p, h, k, plan, scfg, history)
         if plan.status == REACHED or budget is not None or at is not None:
             return plan  # (the tries below are for a full replan from where the robot is, not a branch point's:
             # each of an escape's up to 15 would search again, 2.5 s per escape on a baffle world)
@@ -271,6 +302,33 @@ class FieldPlanner(Recovery):
                 self.tight_plans += 1
                 return tight
         return plan
+
+    def _prefer_opening(self, p: NDArray[np.float64], h: NDArray[np.float64], k: int, plan: Plan,
+                        config: SearchConfig, history: NDArray[np.float64]) -> Plan:
+        """``plan`` (from the state (p, h) for goals from ``k`` on), or a plan through the nearest seen opening
+        towards goal ``k`` (:func:`~navstack.planner.opening.find_opening`) if that one reaches every goal and
+        costs at most ``OpeningConfig.cost_ratio`` times ``plan`` (any cost if ``plan`` does not reach them).
+        Not when ``plan`` already passes through the opening, nor once the planner has backed out more than
+        ``OpeningConfig.max_escapes`` times for this goal.  Beside a plan that reaches every goal, the search
+        through the opening has ``OpeningConfig.budget`` expansions."""
+        ocfg = self.config.opening
+        if (not ocfg.enabled or k >= len(self.goals)
+                or self._goal_retreats.get(self.command_goal, 0) > ocfg.max_escapes):
+            return plan
+        centre = find_opening(self.map.surface_points, self._far, p, self.goals[k], ocfg, heading=h,
+                              min_turn_radius=config.min_turn_radius)
+        if centre is None or (plan.status == REACHED and _passes(plan, centre, ocfg.min_clearance)):
+            return plan  # no opening, or the plan goes through it already (no sensed point is this near its centre)
+        goals = np.vstack([centre, self.goals[k:]])
+        tolerances = np.concatenate([[ocfg.via_tolerance], self.tolerances[k:]])
+        if plan.status == REACHED:  # only a preference: a small budget
+            config = replace(config, max_expansions=min(config.max_expansions, ocfg.budget))
+        via = search(self.map, p, h, goals, tolerances, 0, config, self.config.repulsion, history=history,
+                     arm=self.arm)
+        if via.status != REACHED or (plan.status == REACHED and via.cost > ocfg.cost_ratio * plan.cost):
+            return plan
+        self.opening_plans += 1
+        return _without_via(via, k, self.goals)
 
     def _history(self, end: float, length: float, spacing: float = 0.02) -> NDArray[np.float64]:
         """The commanded path's ``length`` [m] up to arc length ``end``, every ``spacing`` [m], oldest first."""
@@ -369,7 +427,9 @@ class FieldPlanner(Recovery):
         tip = _vec3(tip, "tip")
         _vec3(direction, "direction")  # checked, not used: the planner steers its own commanded heading
         self.time += dt
-        _fuse(self.map, reading, self.config.ray_start)
+        fused = _fuse(self.map, reading, self.config.ray_start)
+        if fused is not None and self.config.opening.enabled:
+            self._far = far_rays(reading.origins, reading.directions, *fused, self.config.opening.far_range)
         self.map.mark_free(tip, self.config.repulsion.body_radius)
         changed = self._sync_goals(goal_index)
         if self.stalled:
