@@ -3,8 +3,11 @@
 import numpy as np
 import pytest
 
+import navstack.planner.field as field
 from navstack.generate.build import generate_world
+from navstack.planner.field import FieldPlanner, _without_via
 from navstack.planner.opening import FarRays, OpeningConfig, far_rays, find_opening
+from navstack.planner.search import PARTIAL, REACHED, Plan
 from navstack.trial import run_trial
 
 
@@ -84,3 +87,84 @@ def test_an_opening_inside_the_tips_turning_circle_is_not_returned():
     assert find_opening(rim, rays, tip, goal, cfg) is not None
     assert find_opening(rim, rays, tip, goal, cfg, heading=np.array([1.0, 0.0, 0.0]), min_turn_radius=0.25) is None
     assert find_opening(rim, rays, tip, goal, cfg, heading=d, min_turn_radius=0.25) is not None
+
+
+def _line_plan(length: float, goal_index, status=REACHED, cost=None, stops=()):
+    """A straight plan along x from the origin, samples 0.1 m apart, with the given goal indices."""
+    x = np.arange(0.0, length + 1e-9, 0.1)
+    pts = np.column_stack([x, np.zeros_like(x), np.zeros_like(x)])
+    return Plan(points=pts, tangents=np.tile([1.0, 0.0, 0.0], (len(x), 1)), arc=x.copy(),
+                goal_index=np.asarray(goal_index, dtype=np.int64), status=status,
+                cost=float(length if cost is None else cost), expansions=1, stops=np.asarray(stops, dtype=float))
+
+
+def test_without_via_counts_the_goals_as_the_plan_for_them_and_drops_the_via_stop():
+    """A plan searched through a via point at x = 0.2 then goals at 0.4 and 0.6 (its indices 0, 1, 2, 3), read
+    as a plan for goals[1:] of a planner with three goals: indices 1 before the goal at 0.4, 2 before 0.6, 3 past
+    it; the stop on the via point goes, the goals' stops stay."""
+    goals = np.array([[-0.5, 0.0, 0.0], [0.4, 0.0, 0.0], [0.6, 0.0, 0.0]])
+    via = _line_plan(0.7, [0, 0, 1, 1, 2, 2, 3, 3], stops=[0.2, 0.4, 0.6])
+    plan = _without_via(via, 1, goals)
+    np.testing.assert_array_equal(plan.goal_index, [1, 1, 1, 1, 2, 2, 3, 3])
+    np.testing.assert_array_equal(plan.stops, [0.4, 0.6])
+    np.testing.assert_array_equal(plan.points, via.points)
+
+
+class _Stubs:
+    """``search`` and ``find_opening`` for :meth:`FieldPlanner._plan_from`: the plain search returns ``plain``,
+    a search through the opening (two goals) returns ``via``; every call is recorded."""
+
+    def __init__(self, plain, via, centre):
+        self.plain, self.via, self.centre, self.calls = plain, via, centre, []
+
+    def search(self, smap, p, h, goals, tolerances, k, config, repulsion, **kw):
+        self.calls.append((len(goals), config.max_expansions))
+        return self.via if len(goals) == 2 else self.plain
+
+    def find_opening(self, *args, **kw):
+        return self.centre
+
+
+@pytest.fixture
+def planner():
+    return FieldPlanner([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [[1.0, 0.0, 0.0]], [0.02])
+
+
+def _plan_with(monkeypatch, planner, stubs, budget=None):
+    monkeypatch.setattr(field, "search", stubs.search)
+    monkeypatch.setattr(field, "find_opening", stubs.find_opening)
+    monkeypatch.setattr(planner, "_far", object())
+    return planner._plan_from(np.zeros(3), np.array([1.0, 0.0, 0.0]), 0, budget=budget)
+
+
+@pytest.mark.parametrize(("via_cost", "kept"), [(1.2, True), (1.3, False)])
+def test_a_plan_through_the_opening_is_kept_unless_it_costs_over_the_ratio(monkeypatch, planner, via_cost, kept):
+    """Beside a plan of cost 1.0 that reaches the goal and passes 0.3 m from the opening: the search through it
+    runs with ``OpeningConfig.budget`` expansions, and its plan is kept at cost 1.2 (<= 1.25 x) but not at 1.3."""
+    plain = _line_plan(1.0, [0] * 10 + [1], cost=1.0)
+    via = _line_plan(1.0, [0] * 5 + [1] * 5 + [2], cost=via_cost)
+    stubs = _Stubs(plain, via, np.array([0.5, 0.3, 0.0]))
+    got = _plan_with(monkeypatch, planner, stubs)
+    assert stubs.calls == [(1, planner.config.search.max_expansions), (2, OpeningConfig().budget)]
+    assert (got.cost == via_cost) is kept and planner.opening_plans == int(kept)
+    if kept:
+        np.testing.assert_array_equal(got.goal_index, [0] * 10 + [1])
+
+
+def test_no_search_through_an_opening_the_plan_passes_or_after_an_escape(monkeypatch, planner):
+    plain = _line_plan(1.0, [0] * 10 + [1], cost=1.0)
+    stubs = _Stubs(plain, _line_plan(1.0, [0] * 10 + [2], cost=1.0), np.array([0.5, 0.03, 0.0]))
+    assert _plan_with(monkeypatch, planner, stubs) is plain and len(stubs.calls) == 1  # within 4 cm of the plan
+    stubs.centre = np.array([0.5, 0.3, 0.0])
+    planner._goal_retreats[planner.command_goal] = 1
+    stubs.calls.clear()
+    assert _plan_with(monkeypatch, planner, stubs) is plain and len(stubs.calls) == 1
+
+
+def test_an_improvement_that_found_nothing_searches_no_opening(monkeypatch, planner):
+    """While the plan being followed holds, a short search that reaches no plan changes nothing: no search through
+    an opening (which would replace the followed plan at any cost)."""
+    partial = _line_plan(0.5, [0] * 6, status=PARTIAL)
+    stubs = _Stubs(partial, _line_plan(1.0, [0] * 10 + [2], cost=50.0), np.array([0.5, 0.3, 0.0]))
+    got = _plan_with(monkeypatch, planner, stubs, budget=planner.config.improve_budget)
+    assert got is partial and stubs.calls == [(1, planner.config.improve_budget)]

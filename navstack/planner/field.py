@@ -274,7 +274,8 @@ class FieldPlanner(Recovery):
         plan = attempt(scfg)
         if plan.status != REACHED and self._nav is not None and self._nav[1] != self.map.version:
             plan = attempt(scfg, fresh=True)  # the map has grown
-        if at is None:
+        if at is None and (budget is None or plan.status == REACHED):
+            # (an improvement that found nothing changes nothing: the plan being followed still holds)
             plan = self._prefer_opening(p, h, k, plan, scfg, history)
         if plan.status == REACHED or budget is not None or at is not None:
             return plan  # (the tries below are for a full replan from where the robot is, not a branch point's:
@@ -309,7 +310,8 @@ class FieldPlanner(Recovery):
         towards goal ``k`` (:func:`~navstack.planner.opening.find_opening`) if that one reaches every goal and
         costs at most ``OpeningConfig.cost_ratio`` times ``plan`` (any cost if ``plan`` does not reach them).
         Not when ``plan`` already passes through the opening, nor once the planner has backed out more than
-        ``OpeningConfig.max_escapes`` times for this goal.  Beside a plan that reaches every goal, the search
+        ``OpeningConfig.max_escapes`` times for this goal (nor, in :meth:`_plan_from`, after an improvement that
+        reached no plan: the plan being followed holds).  Beside a plan that reaches every goal, the search
         through the opening has ``OpeningConfig.budget`` expansions."""
         ocfg = self.config.opening
         if (not ocfg.enabled or k >= len(self.goals)

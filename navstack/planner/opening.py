@@ -34,7 +34,8 @@ class OpeningConfig:
 
     Attributes:
         enabled: look for openings at all.
-        far_range: a measured ray at least this long counts as far [m] (a ray that met nothing always does).
+        far_range: a ray that told the map something (a hit, or free space up to the sensor's range) counts as
+            far if it went at least this long without a hit [m].
         ring_radius: sensed points within this distance of the ray's axis [m] make the ring.
         slab: ... and within half this distance along the ray of the candidate point [m].
         min_clearance: the ring's nearest point is at least this far from the ray's axis [m] (the tip fits).
@@ -45,7 +46,8 @@ class OpeningConfig:
         via_tolerance: the plan passes within this of the opening's centre [m] (times the search's
             ``goal_fraction``).
         cost_ratio: the plan through the opening is kept unless it costs more than this times the other.
-        max_escapes: no opening is looked for once the planner has backed out this many times for the goal.
+        max_escapes: no opening is looked for once the planner has backed out more than this many times for the
+            goal (0: not after the first escape).
         budget: expansions of the search through an opening beside a plan that reaches every goal (where it is a
             preference only).  The 41 such searches that reached the goal in the 12 duct-elbow trials this was
             made for took 1-492; a truss's openings between members rarely lead on, and each search that fails
@@ -108,8 +110,9 @@ def find_opening(points: NDArray[np.float64], rays: FarRays | None, tip: NDArray
     ``points`` (n, 3): the sensed surface points [m]; ``rays``: the last reading's far rays; ``tip`` the
     commanded tip [m].  An opening counts only if it is nearer the goal than the tip is, ahead of the tip
     towards the goal, and at least ``passed`` from the tip; with the tip's unit ``heading``, not inside either
-    circle of ``min_turn_radius`` [m] it could turn on (no path of that curvature passes through such a point
-    without a loop: a search through it spends its budget, measured on truss bays beside the tip).  Along each far
+    circle of ``min_turn_radius`` [m] it could turn on in the plane of its heading and the point (only a long
+    detour of that curvature reaches such a point: a search through it spent its budget, on truss bays beside
+    the tip).  Along each far
     ray towards the goal, points ``sample`` apart from ``near`` on are tried in turn, up to the first that a ring
     surrounds (:func:`_ring_shift`).
     """
@@ -157,9 +160,10 @@ def _find_opening(points, origins, dirs, lengths, tip, goal, heading, prm, centr
             if _dist(c, tip) >= best_d:
                 break
             if not (_ring_shift(beside, nb, c, d, e1, e2, prm, quads, shifted)
-                    and _ring_shift(beside, nb, shifted, d, e1, e2, prm, quads, shifted)):
+                    and _ring_shift(beside, nb, shifted, d, e1, e2, prm, quads, shifted)
+                    and _clear_of(beside, nb, shifted, d, prm)):
                 continue  # twice: the second about the first's centre, so that a ray off the gap's centre sees
-                # each side in its own quadrant
+                # each side in its own quadrant; and the centre itself keeps min_clearance
             d_tip = _dist(shifted, tip)
             if d_tip < passed or _in_turning_circle(shifted, tip, heading, prm[7]):
                 continue  # the gap the tip is passing through, or one it cannot turn into
@@ -238,6 +242,22 @@ def _ring_shift(points, n, c, d, e1, e2, prm, quads, out):  # pragma: no cover -
     su, sv = 0.5 * (m[0] + m[1]), 0.5 * (m[2] + m[3])
     for a in range(3):
         out[a] = c[a] + su * e1[a] + sv * e2[a]
+    return True
+
+
+@numba.njit(cache=True)
+def _clear_of(points, n, c, d, prm):  # pragma: no cover - jitted
+    """Whether none of ``points[:n]`` in the slab across the unit ``d`` about ``c`` is within ``min_clearance`` of
+    the ray through ``c`` (a shifted centre is checked again: the shift is about the points round the old one)."""
+    half_slab, min_clear = 0.5 * prm[1], prm[2]
+    for q in range(n):
+        rx, ry, rz = points[q, 0] - c[0], points[q, 1] - c[1], points[q, 2] - c[2]
+        along = rx * d[0] + ry * d[1] + rz * d[2]
+        if abs(along) > half_slab:
+            continue
+        lx, ly, lz = rx - along * d[0], ry - along * d[1], rz - along * d[2]
+        if lx * lx + ly * ly + lz * lz < min_clear * min_clear:
+            return False
     return True
 
 
