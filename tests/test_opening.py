@@ -133,7 +133,8 @@ def planner():
 def _plan_with(monkeypatch, planner, stubs, budget=None):
     monkeypatch.setattr(field, "search", stubs.search)
     monkeypatch.setattr(field, "find_opening", stubs.find_opening)
-    monkeypatch.setattr(planner, "_far", object())
+    monkeypatch.setattr(planner, "_rays", (np.zeros((1, 3)), np.array([[1.0, 0.0, 0.0]]), np.array([0.4]),
+                                           np.array([True])))
     return planner._plan_from(np.zeros(3), np.array([1.0, 0.0, 0.0]), 0, budget=budget)
 
 
@@ -168,3 +169,11 @@ def test_an_improvement_that_found_nothing_searches_no_opening(monkeypatch, plan
     stubs = _Stubs(partial, _line_plan(1.0, [0] * 10 + [2], cost=50.0), np.array([0.5, 0.3, 0.0]))
     got = _plan_with(monkeypatch, planner, stubs, budget=planner.config.improve_budget)
     assert got is partial and stubs.calls == [(1, planner.config.improve_budget)]
+
+
+@pytest.mark.parametrize("bad", [{"enabled": "no"}, {"budget": 0}, {"min_per_quadrant": 0}, {"cost_ratio": -1.0},
+                                 {"min_clearance": 0.2}, {"far_range": float("nan")}])
+def test_bad_opening_config_is_refused_naming_the_field(bad):
+    name = next(iter(bad)) if "min_clearance" not in bad else "min_clearance"
+    with pytest.raises(ValueError, match=f"OpeningConfig.{name}"):
+        OpeningConfig(**bad)

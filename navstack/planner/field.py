@@ -38,7 +38,7 @@ from navstack.estimate import RangeEstimate
 from navstack.path import PathMemory
 from navstack.planner.escape import EscapeConfig, Wait
 from navstack.planner.map import MapConfig, SensedMap
-from navstack.planner.opening import FarRays, OpeningConfig, far_rays, find_opening
+from navstack.planner.opening import OpeningConfig, far_rays, find_opening
 from navstack.planner.potential import NavigationFunction, Repulsion, navigation_function
 from navstack.planner.proximity import sets_closer_than
 from navstack.planner.recovery import Recovery
@@ -220,7 +220,7 @@ class FieldPlanner(Recovery):
         self._goal_retreats: dict[int, int] = {}
         self._deep_done: tuple[int, int] | None = None  # (goal, its escapes) of the last deeper search
         self.tight_plans = 0  # plans found only with FieldPlannerConfig.tight_margin
-        self._far: FarRays | None = None  # the last reading's far rays (seen openings)
+        self._rays: tuple | None = None  # the last reading's rays as fused (origins, directions, ranges, informative)
         self.opening_plans = 0  # plans kept through a seen opening
         self.follower = PlanFollower(self._plan_from(self.start, h / np.linalg.norm(h), 0), cfg.steering)
         self.goal_index = 0
@@ -317,7 +317,8 @@ class FieldPlanner(Recovery):
         if (not ocfg.enabled or k >= len(self.goals)
                 or self._goal_retreats.get(self.command_goal, 0) > ocfg.max_escapes):
             return plan
-        centre = find_opening(self.map.surface_points, self._far, p, self.goals[k], ocfg, heading=h,
+        far = None if self._rays is None else far_rays(*self._rays, ocfg.far_range)  # only when replanning
+        centre = find_opening(self.map.surface_points, far, p, self.goals[k], ocfg, heading=h,
                               min_turn_radius=config.min_turn_radius)
         if centre is None or (plan.status == REACHED and _passes(plan, centre, ocfg.min_clearance)):
             return plan  # no opening, or the plan goes through it already (no sensed point is this near its centre)
@@ -431,7 +432,7 @@ class FieldPlanner(Recovery):
         self.time += dt
         fused = _fuse(self.map, reading, self.config.ray_start)
         if fused is not None and self.config.opening.enabled:
-            self._far = far_rays(reading.origins, reading.directions, *fused, self.config.opening.far_range)
+            self._rays = (reading.origins, reading.directions, *fused)
         self.map.mark_free(tip, self.config.repulsion.body_radius)
         changed = self._sync_goals(goal_index)
         if self.stalled:

@@ -69,6 +69,8 @@ class OpeningConfig:
     budget: int = 600
 
     def __post_init__(self) -> None:
+        if not isinstance(self.enabled, bool):
+            raise ValueError(f"OpeningConfig.enabled must be True or False, got {self.enabled!r}")
         for name in ("far_range", "ring_radius", "slab", "min_clearance", "sample", "near", "passed",
                      "via_tolerance", "cost_ratio"):
             v = getattr(self, name)
