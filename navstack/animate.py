@@ -49,6 +49,7 @@ from navstack.render import (
     project,
 )
 from navstack.rundir import RunData, load_run
+from navstack.validate import in_range, integer
 
 FORMATS = (".mp4", ".gif")
 
@@ -78,20 +79,21 @@ class AnimationConfig:
     hold: float = 1.5
 
     def __post_init__(self) -> None:
-        for key, lo, hi in (("fps", 0.5, 60.0), ("speed", 0.01, 100.0), ("hold", 0.0, 60.0)):
-            v = getattr(self, key)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (lo <= v <= hi):
-                raise ValueError(f"animation {key} must be a number in [{lo:g}, {hi:g}], got {v!r}")
+        in_range(self, "fps", lo=0.5, hi=60.0)
+        in_range(self, "speed", lo=0.01, hi=100.0)
+        in_range(self, "hold", lo=0.0, hi=60.0, unit=" [s]")
+        in_range(self, "fov", lo=1.0, hi=170.0, unit=" [deg]")
+        integer(self, "width", "height", lo=160, hi=1920)
         for key in ("width", "height"):
-            v = getattr(self, key)
-            if isinstance(v, bool) or not isinstance(v, int) or not (160 <= v <= 1920 and v % 16 == 0):
-                raise ValueError(f"animation {key} must be a multiple of 16 in [160, 1920] pixels, got {v!r}")
+            if getattr(self, key) % 16:
+                raise ValueError(f"AnimationConfig.{key} must be a multiple of 16 pixels (H.264 macroblocks), "
+                                 f"got {getattr(self, key)!r}")
         if self.view not in VIEWS:
-            raise ValueError(f"animation view must be one of {', '.join(VIEWS)}, got {self.view!r}")
+            raise ValueError(f"AnimationConfig.view must be one of {', '.join(VIEWS)}, got {self.view!r}")
         if (self.eye is None) != (self.target is None):
-            raise ValueError("animation eye and target go together: give both or neither")
+            raise ValueError("AnimationConfig.eye and target go together: give both or neither")
         if self.eye is not None:
-            View(target=tuple(self.target), eye=tuple(self.eye), fov=self.fov)  # validates
+            View(target=self.target, eye=self.eye, fov=self.fov)  # validates them
 
 
 @dataclass(frozen=True)

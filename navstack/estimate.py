@@ -58,6 +58,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from navstack.fused import fma
 from navstack.sensing import SensorConfig, SensorReading
+from navstack.validate import integer, non_negative, positive
 
 __all__ = ["EstimatorConfig", "RangeEstimate", "RangeEstimator"]
 
@@ -87,20 +88,10 @@ class EstimatorConfig:
     lag_sigma: float = 2.0
 
     def __post_init__(self) -> None:
-        for name in ("measurement_std", "rate_process_std", "initial_rate_std", "gate_sigma", "lag_sigma"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)):
-                raise ValueError(f"EstimatorConfig.{name} must be a number, got {v!r}")
-            if np.isnan(v) or v < 0 or (np.isinf(v) and name != "lag_sigma"):
-                raise ValueError(f"EstimatorConfig.{name} must be finite and >= 0, got {v}")
-        if self.gate_sigma <= 0:
-            raise ValueError(f"EstimatorConfig.gate_sigma must be > 0, got {self.gate_sigma}")
-        if self.lag_sigma <= 0:
-            raise ValueError(f"EstimatorConfig.lag_sigma must be > 0 (inf: never lagging), got {self.lag_sigma}")
-        if isinstance(self.max_coast, bool) or not isinstance(self.max_coast, (int, np.integer)):
-            raise ValueError(f"EstimatorConfig.max_coast must be an integer, got {self.max_coast!r}")
-        if self.max_coast < 0:
-            raise ValueError(f"EstimatorConfig.max_coast must be >= 0, got {self.max_coast}")
+        non_negative(self, "measurement_std", "rate_process_std", "initial_rate_std", "gate_sigma")
+        positive(self, "gate_sigma")  # (a number >= 0 first, as the others: one message for a value of no number)
+        positive(self, "lag_sigma", inf_ok=True)  # inf: never lagging
+        integer(self, "max_coast", lo=0)
 
 
 @dataclass(frozen=True)

@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from navstack.sim._bullet import pybullet
+from navstack.validate import in_range
 
 CONTACT_RGBA = (0.9, 0.08, 0.08, 1.0)
 """Colour of a robot link touching an obstacle."""
@@ -72,7 +73,10 @@ class View:
     fov: float = 45.0
 
     def __post_init__(self) -> None:
-        t, e = np.asarray(self.target, dtype=float), np.asarray(self.eye, dtype=float)
+        try:
+            t, e = np.asarray(self.target, dtype=float), np.asarray(self.eye, dtype=float)
+        except (TypeError, ValueError):  # not numbers ("abc", a dict...): refused below
+            t = e = np.full(1, np.nan)
         if t.shape != (3,) or e.shape != (3,) or not (np.isfinite(t).all() and np.isfinite(e).all()):
             raise ValueError(f"View: eye and target must be 3 finite numbers each, got {self.eye!r}, {self.target!r}")
         if np.linalg.norm(e - t) < 1e-6:
@@ -80,8 +84,7 @@ class View:
         horizontal = np.linalg.norm((e - t)[:2])
         if horizontal < 1e-6 * np.linalg.norm(e - t):
             raise ValueError("View: the camera cannot look straight down or up (z is up); move the eye sideways")
-        if not 1.0 <= self.fov <= 170.0:
-            raise ValueError(f"View: fov must be in [1, 170] degrees, got {self.fov!r}")
+        in_range(self, "fov", lo=1.0, hi=170.0, unit=" [deg]")
 
     def matrices(self, width: int, height: int):
         """View and projection matrices for a ``width`` x ``height`` picture."""

@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike
 
 from navstack.guide import goal_spline
 from navstack.planner import TipCommand
+from navstack.validate import positive
 
 
 @dataclass(frozen=True)
@@ -32,10 +33,7 @@ class ScriptedConfig:
     """Arc-length resolution of the resampled curve [m]."""
 
     def __post_init__(self) -> None:
-        for name in ("speed", "accel", "sample"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
-                raise ValueError(f"ScriptedConfig.{name} must be a positive number, got {v!r}")
+        positive(self, "speed", "accel", "sample")
 
 
 class ScriptedPlanner:

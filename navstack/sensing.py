@@ -57,6 +57,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from navstack.validate import flag, in_range, integer, positive
+
 __all__ = [
     "SensorConfig",
     "SensorReading",
@@ -68,28 +70,6 @@ __all__ = [
     "ray_directions",
     "ray_start_distances",
 ]
-
-
-def _check_int(name: str, value: object, lo: int) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise ValueError(f"SensorConfig.{name} must be an integer, got {value!r}")
-    if value < lo:
-        raise ValueError(f"SensorConfig.{name} must be >= {lo}, got {value}")
-
-
-def _check_float(name: str, value: object, lo: float, hi: float, lo_open: bool = False,
-                 hi_open: bool = False) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-        raise ValueError(f"SensorConfig.{name} must be a number, got {value!r}")
-    v = float(value)
-    if not np.isfinite(v):
-        raise ValueError(f"SensorConfig.{name} must be finite, got {v}")
-    bad_lo = v <= lo if lo_open else v < lo
-    bad_hi = v >= hi if hi_open else v > hi
-    if bad_lo or bad_hi:
-        lb = "(" if lo_open else "["
-        hb = ")" if hi_open else "]"
-        raise ValueError(f"SensorConfig.{name} must be in {lb}{lo}, {hi}{hb}, got {v}")
 
 
 @dataclass(frozen=True)
@@ -125,19 +105,14 @@ class SensorConfig:
     start_margin: float = 0.005
 
     def __post_init__(self) -> None:
-        _check_int("cone_rings", self.cone_rings, 0)
-        _check_int("cone_rays_per_ring", self.cone_rays_per_ring, 1)
-        _check_int("side_rays", self.side_rays, 0)
-        _check_int("back_rays", self.back_rays, 0)
-        if not isinstance(self.include_axis, (bool, np.bool_)):
-            raise ValueError(f"SensorConfig.include_axis must be a bool, got {self.include_axis!r}")
-        _check_float("cone_half_angle", self.cone_half_angle, 0.0, np.pi / 2, lo_open=True, hi_open=True)
-        _check_float("back_tilt", self.back_tilt, 0.0, 1.2, lo_open=True)
-        _check_float("max_range", self.max_range, 0.0, 100.0, lo_open=True)
-        _check_float("noise_std", self.noise_std, 0.0, 1.0)
-        _check_float("dropout_prob", self.dropout_prob, 0.0, 1.0, hi_open=True)
-        _check_float("body_radius", self.body_radius, 0.0, 1.0)
-        _check_float("start_margin", self.start_margin, 0.0, 1.0)
+        integer(self, "cone_rings", "side_rays", "back_rays", lo=0)
+        integer(self, "cone_rays_per_ring", lo=1)
+        flag(self, "include_axis")
+        in_range(self, "cone_half_angle", lo=0.0, hi=np.pi / 2, lo_open=True, hi_open=True, unit=" [rad]")
+        in_range(self, "back_tilt", lo=0.0, hi=1.2, lo_open=True, unit=" [rad]")
+        in_range(self, "max_range", lo=0.0, hi=100.0, lo_open=True, unit=" [m]")
+        in_range(self, "noise_std", "body_radius", "start_margin", lo=0.0, hi=1.0, unit=" [m]")
+        in_range(self, "dropout_prob", lo=0.0, hi=1.0, hi_open=True)
         n = (1 if self.include_axis else 0) + self.cone_rings * self.cone_rays_per_ring
         if n + self.side_rays + self.back_rays == 0:
             raise ValueError("SensorConfig has no rays: set include_axis, cone_rings, side_rays or back_rays")
@@ -292,8 +267,7 @@ class SensorReading:
             )
         if np.any(h & ~v):
             raise ValueError("SensorReading: a ray cannot be both a hit and a dropout (hit & ~valid)")
-        if not (np.isfinite(self.max_range) and self.max_range > 0):
-            raise ValueError(f"SensorReading.max_range must be positive, got {self.max_range}")
+        positive(self, "max_range")
         for name, arr in (("origins", o), ("directions", d), ("ranges", r), ("hit", h), ("valid", v)):
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)

@@ -52,6 +52,7 @@ from navstack.planner.field import FieldPlannerConfig
 from navstack.planner.reactive import PlannerConfig
 from navstack.sensing import SensorConfig
 from navstack.sim.servo import ServoConfig
+from navstack.validate import instance, positive
 from navstack.world import Mesh, WorldError
 
 REASONS = ("reached", "collision", "timeout", "stalled", "joint_limit", "error")
@@ -90,11 +91,11 @@ class TrialConfig:
     def __post_init__(self) -> None:
         if self.slither_mode not in ("projected", "full"):
             raise ValueError(f"TrialConfig.slither_mode must be 'projected' or 'full', got {self.slither_mode!r}")
-        for name in ("scripted_speed", "clearance_horizon", "joint_limit_time", "joint_limit_lag", "retract_speed",
-                     "retract_accel"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
-                raise ValueError(f"TrialConfig.{name} must be a positive number, got {v!r}")
+        positive(self, "scripted_speed", "clearance_horizon", "joint_limit_time", "joint_limit_lag", "retract_speed",
+                 "retract_accel")
+        for name, cls in (("servo", ServoConfig), ("sensor", SensorConfig), ("field_planner", FieldPlannerConfig),
+                          ("reactive_planner", PlannerConfig)):
+            instance(self, name, cls)
 
 
 @dataclass

@@ -50,6 +50,7 @@ from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
 from navstack.jpl import MAX_ROBOT_RADIUS, MIN_ROBOT_RADIUS
+from navstack.validate import in_range, integer
 
 if TYPE_CHECKING:
     from navstack.kinematics import Chain
@@ -97,16 +98,13 @@ class UrdfOptions:
     name: str | None = None
 
     def __post_init__(self) -> None:
-        for key in ("serpentine_radius", "arm_radius", "arm_mass", "serpentine_mass", "arm_inertia",
-                    "serpentine_inertia", "effort_prismatic", "effort_revolute", "velocity"):
-            v = getattr(self, key)
-            lo, hi = (MIN_ROBOT_RADIUS, MAX_ROBOT_RADIUS) if key.endswith("radius") else (0.0, MAX_URDF_VALUE)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (lo <= v <= hi and v > 0):
-                what = (f"from {lo:g} to {hi:g} m (as in world files)" if key.endswith("radius")
-                        else f"positive, at most {hi:g}")
-                raise ValueError(f"UrdfOptions.{key} must be a number {what}, got {v!r}")
-        if isinstance(self.first_serpentine_frame, bool) or not isinstance(self.first_serpentine_frame, int):
-            raise ValueError(f"UrdfOptions.first_serpentine_frame must be an int, got {self.first_serpentine_frame!r}")
+        in_range(self, "serpentine_radius", "arm_radius", lo=MIN_ROBOT_RADIUS, hi=MAX_ROBOT_RADIUS,
+                 unit=" [m] (as in world files)")
+        in_range(self, "arm_mass", "serpentine_mass", "arm_inertia", "serpentine_inertia", "effort_prismatic",
+                 "effort_revolute", "velocity", lo=0.0, hi=MAX_URDF_VALUE, lo_open=True)
+        integer(self, "first_serpentine_frame")
+        if self.name is not None and not isinstance(self.name, str):
+            raise ValueError(f"UrdfOptions.name must be a string or None, got {self.name!r}")
 
 
 def _num(x: float) -> str:

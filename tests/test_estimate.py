@@ -555,5 +555,5 @@ def test_measured_ranges_of_rays_not_measured_are_nan_and_lag_sigma_is_checked()
     for bad in (0.0, -1.0, float("nan")):
         with pytest.raises(ValueError, match="EstimatorConfig.lag_sigma"):
             EstimatorConfig(lag_sigma=bad)
-    with pytest.raises(ValueError, match="EstimatorConfig.gate_sigma must be finite"):
+    with pytest.raises(ValueError, match="EstimatorConfig.gate_sigma must be a number >= 0"):
         EstimatorConfig(gate_sigma=float("inf"))

@@ -3,18 +3,27 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 
 from navstack.jpl import ARM_JOINTS, N_JOINTS
+from navstack.validate import integer, non_negative, positive
 
 SlitherMode = Literal["projected", "full", "none"]
 MODES: dict[str, int] = {"none": 0, "projected": 1, "full": 2}
 """Slithering task forms and their codes in the compiled row builders."""
 
 DEG = math.pi / 180.0
+
+
+def _floats(v: object) -> np.ndarray:
+    """``v`` as a float array; an array of one NaN if it is no array of numbers (a string, None...)."""
+    try:
+        return np.asarray(v, dtype=np.float64)
+    except (TypeError, ValueError):
+        return np.full(1, np.nan)
 
 
 @dataclass(frozen=True)
@@ -55,36 +64,23 @@ class ControlConfig:
     """How far [m] a reverse tip command may be from the recorded path (it should lie on it)."""
 
     def __post_init__(self) -> None:
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if f.name in ("slither", "posture", "wv", "sigma_every"):
-                continue
-            if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
-                raise ValueError(f"ControlConfig.{f.name} must be a finite number, got {v!r}")
-        positive = ("dt", "w_tip", "lambda0", "sigma_eps", "path_spacing", "reverse_tolerance")
-        for name in positive:
-            if getattr(self, name) <= 0:
-                raise ValueError(f"ControlConfig.{name} must be > 0, got {getattr(self, name)!r}")
-        nonneg = ("k_tip", "w_slither", "k_slither", "w_posture", "k_posture", "w_limit", "k_limit",
-                  "limit_margin", "limit_margin_prismatic", "lambda_max")
-        for name in nonneg:
-            if getattr(self, name) < 0:
-                raise ValueError(f"ControlConfig.{name} must be >= 0, got {getattr(self, name)!r}")
+        positive(self, "dt", "w_tip", "lambda0", "sigma_eps", "path_spacing", "reverse_tolerance")
+        non_negative(self, "k_tip", "w_slither", "k_slither", "w_posture", "k_posture", "w_limit", "k_limit",
+                     "limit_margin", "limit_margin_prismatic", "lambda_max")
         for name in ("k_tip", "k_slither", "k_posture", "k_limit"):
             if getattr(self, name) * self.dt > 1.0:
                 raise ValueError(
                     f"ControlConfig.{name}={getattr(self, name)} 1/s is too large for dt={self.dt} s "
                     f"(need gain*dt <= 1 for a stable discrete loop)"
                 )
-        if self.slither not in MODES:
+        if not isinstance(self.slither, str) or self.slither not in MODES:
             raise ValueError(f"ControlConfig.slither must be one of {sorted(MODES)}, got {self.slither!r}")
-        if isinstance(self.sigma_every, bool) or not isinstance(self.sigma_every, int) or self.sigma_every < 1:
-            raise ValueError(f"ControlConfig.sigma_every must be an integer >= 1, got {self.sigma_every!r}")
-        wv = np.asarray(self.wv, dtype=np.float64)
+        integer(self, "sigma_every", lo=1)
+        wv = _floats(self.wv)
         if wv.shape != (N_JOINTS,) or not np.isfinite(wv).all() or (wv <= 0).any():
             raise ValueError(f"ControlConfig.wv must be {N_JOINTS} finite values > 0, got {self.wv!r}")
         if self.posture is not None:
-            p = np.asarray(self.posture, dtype=np.float64)
+            p = _floats(self.posture)
             if p.shape != (len(ARM_JOINTS),) or not np.isfinite(p).all():
                 raise ValueError(
                     f"ControlConfig.posture must be {len(ARM_JOINTS)} finite arm angles [rad] or None, "

@@ -19,6 +19,7 @@ from scipy.spatial.transform import Rotation
 from navstack.generate.geometry import FloatArray, obstacle_distance, segment_samples
 from navstack.guide import GuidePath, goal_spline
 from navstack.jpl import BACKBONE_FRAMES, LINK_LENGTH, jpl_serpentine
+from navstack.validate import in_range, non_negative, positive
 from navstack.world import Box, Cylinder, LinearMotion, Mesh, Obstacle, Sphere, World
 
 __all__ = [
@@ -71,13 +72,10 @@ class CheckConfig:
     """Distances beyond this are reported as this value."""
 
     def __post_init__(self) -> None:
-        for name, value in self.__dict__.items():
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise ValueError(f"CheckConfig.{name} must be a finite number, got {value!r}")
-            if value < 0 or (value == 0 and name not in ("path_margin", "body_margin", "arm_margin")):
-                raise ValueError(f"CheckConfig.{name} must be positive, got {value!r}")
-        if self.goal_reach > 1.0:
-            raise ValueError(f"CheckConfig.goal_reach must be at most 1, got {self.goal_reach!r}")
+        positive(self, "goal_clearance", "start_clearance", "min_turn_radius", "max_inside_length", "structure_pad",
+                 "path_sample", "body_step", "arm_sample", "horizon")
+        non_negative(self, "path_margin", "body_margin", "arm_margin")
+        in_range(self, "goal_reach", lo=0.0, hi=1.0, lo_open=True)
 
 
 ReferencePath = GuidePath

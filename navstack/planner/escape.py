@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 
 from navstack.path import PathMemory
 from navstack.planner.search import REACHED, Plan
+from navstack.validate import integer, non_negative, positive
 
 __all__ = ["TIE", "WAIT_ESCAPE_PERIODS", "EscapeConfig", "Wait", "find_branch_point"]
 
@@ -81,17 +82,9 @@ class EscapeConfig:
     max_look_backs: int = 2
 
     def __post_init__(self) -> None:
-        for name in ("step", "min_back", "max_back", "speed", "accel", "look_back"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise ValueError(f"EscapeConfig.{name} must be a positive number, got {v!r}")
-        v = self.patience
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-            raise ValueError(f"EscapeConfig.patience must be a number >= 0 [s], got {v!r}")
-        for name in ("max_retreats", "max_look_backs"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
-                raise ValueError(f"EscapeConfig.{name} must be an integer >= 0, got {v!r}")
+        positive(self, "step", "min_back", "max_back", "speed", "accel", "look_back")
+        non_negative(self, "patience")
+        integer(self, "max_retreats", "max_look_backs", lo=0)
 
 
 def find_branch_point(path: PathMemory, plan_from: Callable[[NDArray, NDArray, float], Plan],

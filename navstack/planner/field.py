@@ -28,7 +28,6 @@ and the filtered sensor readings (tests/test_isolation.py).  Units: metres, seco
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -57,6 +56,7 @@ from navstack.planner.search import (
 from navstack.planner.steering import PlanFollower, SteeringConfig
 from navstack.planner.types import TipCommand
 from navstack.retreat import Retreat
+from navstack.validate import instance, integer, non_negative, positive
 
 RELAXED_GOAL_FRACTION = 0.85
 """The goal ball (fraction of each tolerance) of a full search's second try when the first, at the search's own
@@ -113,17 +113,13 @@ class FieldPlannerConfig:
     tight_margin: float | None = 0.005
 
     def __post_init__(self) -> None:
-        for name in ("replan_period", "horizon", "ray_start", "urgent_margin", "nav_period"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise ValueError(f"FieldPlannerConfig.{name} must be a positive number, got {v!r}")
-        t = self.tight_margin
-        if t is not None and (isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t) or t < 0):
-            raise ValueError(f"FieldPlannerConfig.tight_margin must be None or a finite number >= 0, got {t!r}")
-        for name, lo in (("improve_budget", 1), ("deep_budget", 0), ("deep_after_retreats", 0)):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < lo:
-                raise ValueError(f"FieldPlannerConfig.{name} must be an integer >= {lo}, got {v!r}")
+        for name, cls in (("map", MapConfig), ("repulsion", Repulsion), ("search", SearchConfig),
+                          ("steering", SteeringConfig), ("escape", EscapeConfig), ("opening", OpeningConfig)):
+            instance(self, name, cls)
+        positive(self, "replan_period", "horizon", "ray_start", "urgent_margin", "nav_period", "path_spacing")
+        non_negative(self, "tight_margin", none_ok=True)
+        integer(self, "improve_budget", lo=1)
+        integer(self, "deep_budget", "deep_after_retreats", lo=0)
 
 
 def _vec3(v: ArrayLike, name: str) -> NDArray[np.float64]:

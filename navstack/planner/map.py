@@ -112,6 +112,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from navstack.planner.grazing import along_a_plane, beside_a_line
+from navstack.validate import flag, in_range, integer, is_number, positive
 
 __all__ = ["MapConfig", "SensedMap", "nearest_distance"]
 
@@ -189,41 +190,22 @@ class MapConfig:
     motion_graze_angle: float = math.radians(10.0)
 
     def __post_init__(self) -> None:
-        for name in ("voxel", "bucket", "free_cell", "margin", "hit_backoff", "clear_radius", "clear_backoff",
-                     "sensed_clear_radius"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise ValueError(f"MapConfig.{name} must be a positive length [m], got {v!r}")
-        v = self.sensed_clear_slope
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 <= v < 1:
-            raise ValueError(f"MapConfig.sensed_clear_slope must be a number in [0, 1) [m/m], got {v!r}")
+        positive(self, "voxel", "bucket", "free_cell", "margin", "hit_backoff", "clear_radius", "clear_backoff",
+                 "sensed_clear_radius")
+        in_range(self, "sensed_clear_slope", lo=0.0, hi=1.0, hi_open=True, unit=" [m/m]")
         ratio = self.bucket / self.voxel
         if abs(ratio - round(ratio)) > 1e-9:
             raise ValueError(f"MapConfig.bucket ({self.bucket}) must be a whole multiple of voxel ({self.voxel})")
         depths = self.shadow_depths
-        if not isinstance(depths, tuple) or not all(
-                isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) and x > 0 for x in depths):
+        if not isinstance(depths, tuple) or not all(is_number(x) and 0 < x < math.inf for x in depths):
             raise ValueError(f"MapConfig.shadow_depths must be a tuple of positive lengths [m], got {depths!r}")
-        for name in ("forget_moved", "detect_motion"):
-            if not isinstance(getattr(self, name), bool):
-                raise ValueError(f"MapConfig.{name} must be a bool, got {getattr(self, name)!r}")
-        v = self.sheet_radius
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 <= v <= self.bucket:
-            raise ValueError(f"MapConfig.sheet_radius must be a length in [0, bucket = {self.bucket}] [m], got {v!r}")
-        v = self.motion_view_angle
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 <= v <= math.pi:
-            raise ValueError(f"MapConfig.motion_view_angle must be an angle in [0, pi] [rad], got {v!r}")
-        v = self.motion_graze_angle
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 <= v <= math.pi / 2:
-            raise ValueError(f"MapConfig.motion_graze_angle must be an angle in [0, pi/2] [rad], got {v!r}")
-        v = self.sheet_line_ratio
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 < v < 1:
-            raise ValueError(f"MapConfig.sheet_line_ratio must be a number in (0, 1), got {v!r}")
-        for name in ("average", "initial_evidence", "max_evidence", "motion_contradictions",
-                     "motion_window", "sheet_min_points"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-                raise ValueError(f"MapConfig.{name} must be an integer >= 1, got {v!r}")
+        flag(self, "forget_moved", "detect_motion")
+        in_range(self, "sheet_radius", lo=0.0, hi=self.bucket, unit=" [m] (at most bucket)")
+        in_range(self, "motion_view_angle", lo=0.0, hi=math.pi, unit=" [rad]")
+        in_range(self, "motion_graze_angle", lo=0.0, hi=math.pi / 2, unit=" [rad]")
+        in_range(self, "sheet_line_ratio", lo=0.0, hi=1.0, lo_open=True, hi_open=True)
+        integer(self, "average", "initial_evidence", "max_evidence", "motion_contradictions", "motion_window",
+                "sheet_min_points", lo=1)
 
 
 # ------------------------------------------------------------------------------------------ kernels

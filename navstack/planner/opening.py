@@ -25,6 +25,8 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from navstack.validate import flag, integer, positive
+
 __all__ = ["FarRays", "OpeningConfig", "far_rays", "find_opening"]
 
 
@@ -69,19 +71,13 @@ class OpeningConfig:
     budget: int = 600
 
     def __post_init__(self) -> None:
-        if not isinstance(self.enabled, bool):
-            raise ValueError(f"OpeningConfig.enabled must be True or False, got {self.enabled!r}")
-        for name in ("far_range", "ring_radius", "slab", "min_clearance", "sample", "near", "passed",
-                     "via_tolerance", "cost_ratio"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise ValueError(f"OpeningConfig.{name} must be a positive number, got {v!r}")
+        flag(self, "enabled")
+        positive(self, "far_range", "ring_radius", "slab", "min_clearance", "sample", "near", "passed",
+                 "via_tolerance", "cost_ratio")
         if self.min_clearance >= self.ring_radius:
             raise ValueError("OpeningConfig.min_clearance must be below ring_radius")
-        for name, lo in (("min_per_quadrant", 1), ("max_escapes", 0), ("budget", 1)):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < lo:
-                raise ValueError(f"OpeningConfig.{name} must be an integer >= {lo}, got {v!r}")
+        integer(self, "min_per_quadrant", "budget", lo=1)
+        integer(self, "max_escapes", lo=0)
 
 
 @dataclass(frozen=True)

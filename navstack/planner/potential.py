@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 
 from navstack.jit import kernel
 from navstack.planner.proximity import distance_below
+from navstack.validate import non_negative
 
 __all__ = ["Repulsion", "cost_rate"]
 
@@ -60,11 +61,8 @@ class Repulsion:
     w_unseen: float = 0.05
 
     def __post_init__(self) -> None:
-        for name in ("body_radius", "margin", "influence", "w_repulse", "unseen_radius", "w_unseen_surface",
-                     "w_unseen"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-                raise ValueError(f"Repulsion.{name} must be a finite number >= 0, got {v!r}")
+        non_negative(self, "body_radius", "margin", "influence", "w_repulse", "unseen_radius", "w_unseen_surface",
+                     "w_unseen")
         if self.influence <= self.r_block:
             raise ValueError(f"Repulsion.influence ({self.influence}) must exceed body_radius + margin "
                              f"({self.r_block})")

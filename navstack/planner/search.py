@@ -48,6 +48,7 @@ from navstack.planner.potential import (
     wave_value,
 )
 from navstack.planner.proximity import distance_below, distances_below, point_index, segment_distance_below
+from navstack.validate import flag, in_range, integer, non_negative, positive
 
 __all__ = ["NO_PATH", "PARTIAL", "REACHED", "ArmShape", "Plan", "SearchConfig", "only_the_arm_blocks", "search",
            "still_clear"]
@@ -128,22 +129,16 @@ class SearchConfig:
     half_curvature: bool = True
 
     def __post_init__(self) -> None:
-        for name in ("min_turn_radius", "step", "cell", "heading_bin", "epsilon", "max_length"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"SearchConfig.{name} must be a positive number, got {v!r}")
-        for name in ("w_turn", "start_relax", "start_margin", "start_slack"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
-                raise ValueError(f"SearchConfig.{name} must be a number >= 0, got {v!r}")
+        positive(self, "min_turn_radius", "step", "cell", "heading_bin", "epsilon", "max_length", "link_length",
+                 "length_factor")
+        non_negative(self, "w_turn", "start_relax", "start_margin", "start_slack", "arm_clearance", "arm_margin",
+                     "length_slack", "nav_margin")
         if self.epsilon < 1:
             raise ValueError(f"SearchConfig.epsilon must be >= 1, got {self.epsilon}")
-        if not 0 < self.goal_fraction <= 1:
-            raise ValueError(f"SearchConfig.goal_fraction must be in (0, 1], got {self.goal_fraction}")
-        for name, lo in (("samples", 1), ("n_dirs", 3), ("max_expansions", 1)):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < lo:
-                raise ValueError(f"SearchConfig.{name} must be an integer >= {lo}, got {v!r}")
+        in_range(self, "goal_fraction", lo=0.0, hi=1.0, lo_open=True)
+        integer(self, "samples", "max_expansions", lo=1)
+        integer(self, "n_dirs", lo=3)
+        flag(self, "half_curvature")
 
 
 @dataclass(frozen=True)
@@ -164,8 +159,7 @@ class ArmShape:
             raise ValueError(f"ArmShape.points must be a finite (k, 3) array [m], got shape {points.shape}")
         if flange.shape != (3,) or not np.isfinite(flange).all():
             raise ValueError(f"ArmShape.flange must be a finite 3-vector [m], got shape {flange.shape}")
-        if not (isinstance(self.radius, (int, float)) and math.isfinite(self.radius) and self.radius > 0):
-            raise ValueError(f"ArmShape.radius must be a positive length [m], got {self.radius!r}")
+        positive(self, "radius")
         object.__setattr__(self, "points", points)
         object.__setattr__(self, "flange", flange)
         object.__setattr__(self, "radius", float(self.radius))

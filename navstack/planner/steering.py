@@ -33,6 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from navstack.planner.search import Plan
+from navstack.validate import integer, positive
 
 __all__ = ["PlanFollower", "SteeringConfig"]
 
@@ -65,13 +66,9 @@ class SteeringConfig:
     stop_hold: float = 2.0
 
     def __post_init__(self) -> None:
-        if isinstance(self.stop_window, bool) or not isinstance(self.stop_window, int) or self.stop_window < 1:
-            raise ValueError(f"SteeringConfig.stop_window must be an integer >= 1, got {self.stop_window!r}")
-        for name in ("v_max", "v_min", "accel", "slow_clearance", "stop_clearance", "max_lead", "stop_lag",
-                     "stop_hold"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise ValueError(f"SteeringConfig.{name} must be a positive number, got {v!r}")
+        integer(self, "stop_window", lo=1)
+        positive(self, "v_max", "v_min", "accel", "slow_clearance", "stop_clearance", "max_lead", "stop_lag",
+                 "stop_hold")
         if self.v_min > self.v_max:
             raise ValueError(f"SteeringConfig.v_min ({self.v_min}) exceeds v_max ({self.v_max})")
         if self.stop_clearance >= self.slow_clearance:

@@ -50,6 +50,7 @@ from numpy.typing import ArrayLike
 from navstack.kinematics import Chain, frames_into, point_jacobians_into
 from navstack.sim._bullet import pybullet
 from navstack.sim.body import RobotBody
+from navstack.validate import finite, flag, in_range, integer, positive
 
 
 @numba.njit(cache=True)
@@ -123,14 +124,11 @@ class ServoConfig:
     """Add the holding torques at the set-point to every joint (module docstring)."""
 
     def __post_init__(self) -> None:
-        for name in ("physics_hz", "control_hz", "lathe_force", "arm_torque", "serpentine_torque"):
-            v = getattr(self, name)
-            if not np.isfinite(v) or v <= 0:
-                raise ValueError(f"ServoConfig.{name} must be a positive number, got {v!r}")
-        for name in ("position_gain", "velocity_gain"):
-            v = getattr(self, name)
-            if not np.isfinite(v) or not 0 < v <= 1:
-                raise ValueError(f"ServoConfig.{name} must be in (0, 1], got {v!r}")
+        positive(self, "physics_hz", "control_hz", "lathe_force", "arm_torque", "serpentine_torque")
+        in_range(self, "position_gain", "velocity_gain", lo=0.0, hi=1.0, lo_open=True)
+        finite(self, "gravity")
+        integer(self, "solver_iterations", lo=1)
+        flag(self, "gravity_compensation")
         ratio = self.physics_hz / self.control_hz
         if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
             raise ValueError(

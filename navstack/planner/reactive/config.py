@@ -2,16 +2,12 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
-
-import numpy as np
+from dataclasses import dataclass, field
 
 from navstack.estimate import EstimatorConfig
+from navstack.validate import flag, in_range, instance, integer, non_negative, positive
 
 __all__ = ["PlannerConfig"]
-
-_POSITIVE = "positive"
-_NONNEG = "nonneg"
 
 
 @dataclass(frozen=True)
@@ -116,42 +112,19 @@ class PlannerConfig:
     estimator: EstimatorConfig = field(default_factory=EstimatorConfig)
 
     def __post_init__(self) -> None:
-        kinds = dict.fromkeys(
-            ("v_max", "min_turn_radius", "influence_distance", "safety_distance", "slow_distance",
-             "lookahead", "max_lead", "approach_distance", "gap_clearance_cap", "gap_min_lookahead",
-             "gap_recover_distance", "goal_repulsion_radius", "gap_max_angle", "goal_guard",
-             "guide_lookahead", "guide_capture",
-             "stall_window", "stall_progress", "escape_timeout", "follow_distance", "follow_range",
-             "memory_voxel", "memory_radius"),
-            _POSITIVE,
-        )
-        kinds.update(dict.fromkeys(
-            ("v_min", "body_radius", "corner_lead", "corner_tangent", "repulsion_gain", "tube_margin",
-             "avoid_gain", "stop_distance", "gap_search_radius", "gap_offset_cost", "gap_behind",
-             "gap_min_clearance", "gap_time_constant"),
-            _NONNEG,
-        ))
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if f.name in kinds:
-                if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
-                    raise ValueError(f"PlannerConfig.{f.name} must be a number, got {v!r}")
-                if not np.isfinite(v):
-                    raise ValueError(f"PlannerConfig.{f.name} must be finite, got {v}")
-                if kinds[f.name] == _POSITIVE and v <= 0:
-                    raise ValueError(f"PlannerConfig.{f.name} must be > 0, got {v}")
-                if kinds[f.name] == _NONNEG and v < 0:
-                    raise ValueError(f"PlannerConfig.{f.name} must be >= 0, got {v}")
-        for name, lo in (("max_escapes", 0), ("memory_capacity", 1), ("memory_average", 1)):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
-                raise ValueError(f"PlannerConfig.{name} must be an integer >= {lo}, got {v!r}")
-        if not 0.0 < self.goal_guard <= 1.0:
-            raise ValueError(f"PlannerConfig.goal_guard must be in (0, 1], got {self.goal_guard}")
-        if not isinstance(self.gap_centering, (bool, np.bool_)):
-            raise ValueError(f"PlannerConfig.gap_centering must be a bool, got {self.gap_centering!r}")
-        if not isinstance(self.estimator, EstimatorConfig):
-            raise ValueError(f"PlannerConfig.estimator must be an EstimatorConfig, got {self.estimator!r}")
+        positive(self, "v_max", "min_turn_radius", "influence_distance", "safety_distance", "slow_distance",
+                 "lookahead", "max_lead", "approach_distance", "gap_clearance_cap", "gap_min_lookahead",
+                 "gap_recover_distance", "goal_repulsion_radius", "gap_max_angle", "guide_lookahead",
+                 "guide_capture", "stall_window", "stall_progress", "escape_timeout", "follow_distance",
+                 "follow_range", "memory_voxel", "memory_radius")
+        non_negative(self, "v_min", "body_radius", "corner_lead", "corner_tangent", "repulsion_gain", "tube_margin",
+                     "avoid_gain", "stop_distance", "gap_search_radius", "gap_offset_cost", "gap_behind",
+                     "gap_min_clearance", "gap_time_constant")
+        in_range(self, "goal_guard", lo=0.0, hi=1.0, lo_open=True)
+        integer(self, "max_escapes", lo=0)
+        integer(self, "memory_capacity", "memory_average", lo=1)
+        flag(self, "gap_centering")
+        instance(self, "estimator", EstimatorConfig)
         if self.v_min > self.v_max:
             raise ValueError(f"PlannerConfig.v_min ({self.v_min}) must not exceed v_max ({self.v_max})")
         if self.safety_distance >= self.slow_distance:
