@@ -99,7 +99,7 @@ class UrdfOptions:
 
     def __post_init__(self) -> None:
         in_range(self, "serpentine_radius", "arm_radius", lo=MIN_ROBOT_RADIUS, hi=MAX_ROBOT_RADIUS,
-                 unit=" [m] (as in world files)")
+                 what=f"a number from {MIN_ROBOT_RADIUS:g} to {MAX_ROBOT_RADIUS:g} m (as in world files)")
         in_range(self, "arm_mass", "serpentine_mass", "arm_inertia", "serpentine_inertia", "effort_prismatic",
                  "effort_revolute", "velocity", lo=0.0, hi=MAX_URDF_VALUE, lo_open=True)
         integer(self, "first_serpentine_frame")

@@ -96,10 +96,12 @@ def _bound(x: float) -> str:
 
 
 def in_range(obj: object, *names: str, lo: float, hi: float, lo_open: bool = False, hi_open: bool = False,
-             unit: str = "") -> None:
+             unit: str = "", what: str | None = None) -> None:
     """Each field is a finite number in the interval from ``lo`` to ``hi``, each end included unless open
-    ("a number in (0, 1]"; ``unit``, such as ``" [m]"``, is appended to the message)."""
-    what = f"a number in {'(' if lo_open else '['}{_bound(lo)}, {_bound(hi)}{')' if hi_open else ']'}{unit}"
+    ("a number in (0, 1]"; ``unit``, such as ``" [m]"``, is appended to the message; ``what`` replaces the
+    description where a message's wording is kept for its readers, as the command line's)."""
+    if what is None:
+        what = f"a number in {'(' if lo_open else '['}{_bound(lo)}, {_bound(hi)}{')' if hi_open else ']'}{unit}"
 
     def ok(x: float) -> bool:
         return (x > lo if lo_open else x >= lo) and (x < hi if hi_open else x <= hi)

@@ -360,3 +360,10 @@ def test_cross_field_rules_still_hold():
         AnimationConfig(width=300)
     assert EstimatorConfig(lag_sigma=math.inf).lag_sigma == math.inf  # never lagging
     assert FieldPlannerConfig(tight_margin=None).tight_margin is None
+
+
+def test_in_range_keeps_a_wording_given_for_its_readers():
+    _refused(lambda c: in_range(c, "x", lo=0.01, hi=0.5, what="a number from 0.01 to 0.5 m"), 1e300,
+             "a number from 0.01 to 0.5 m")
+    with pytest.raises(ValueError, match=r"^UrdfOptions\.arm_radius must be a number from 0\.01 to 0\.5 m \(as in"):
+        UrdfOptions(arm_radius="0.06")
