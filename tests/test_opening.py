@@ -177,3 +177,101 @@ def test_bad_opening_config_is_refused_naming_the_field(bad):
     name = next(iter(bad)) if "min_clearance" not in bad else "min_clearance"
     with pytest.raises(ValueError, match=f"OpeningConfig.{name}"):
         OpeningConfig(**bad)
+
+
+# ---- the compiled search against a plain statement of it, and moved with the scene
+
+def _ring(centre, normal, radius, n=48):
+    """``n`` points on a circle of ``radius`` [m] about ``centre`` in the plane of the unit ``normal``."""
+    a = np.cross(normal, [1.0, 0.0, 0.0] if abs(normal[0]) < 0.9 else [0.0, 1.0, 0.0])
+    a /= np.linalg.norm(a)
+    b = np.cross(normal, a)
+    phi = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)[:, None]
+    return centre + radius * (np.cos(phi) * a + np.sin(phi) * b)
+
+
+def _unit(v):
+    return v / np.linalg.norm(v)
+
+
+def _random_scene(rng):
+    """Rims (circles or squares, tilted up to 30 deg off the ray) 0.1-0.35 m ahead of a tip, far rays through or
+    near them (some off-centre, some missing), scattered points, a goal ahead or beside, a heading."""
+    tip = rng.uniform(-1.0, 1.0, 3)
+    forward = _unit(rng.normal(size=3))
+    points, dirs = [], []
+    for _ in range(rng.integers(1, 4)):
+        side = _unit(np.cross(forward, rng.normal(size=3)))
+        centre = tip + rng.uniform(0.1, 0.35) * forward + rng.uniform(0.0, 0.15) * side
+        normal = _unit(forward + np.tan(np.radians(rng.uniform(0.0, 30.0))) * _unit(np.cross(forward, side)))
+        radius = rng.uniform(0.035, 0.12)
+        if rng.random() < 0.5:
+            points.append(_ring(centre, normal, radius, n=int(rng.integers(8, 64))))
+        else:
+            e1, e2 = _unit(np.cross(normal, side)), side
+            s = np.linspace(-radius, radius, int(rng.integers(3, 16)))[:, None]
+            points += [centre + o * radius * e + s * f for e, f in ((e1, e2), (e2, e1)) for o in (-1.0, 1.0)]
+        for _ in range(rng.integers(1, 4)):
+            aim = centre + rng.normal(scale=0.3 * radius, size=3)
+            dirs.append(_unit(aim - tip))
+    points.append(tip + rng.normal(scale=0.25, size=(int(rng.integers(0, 40)), 3)))
+    dirs += [_unit(forward + rng.normal(scale=0.5, size=3)) for _ in range(rng.integers(0, 4))]
+    dirs = np.array(dirs)
+    rays = FarRays(np.tile(tip, (len(dirs), 1)), dirs, rng.uniform(0.25, 0.4, len(dirs)))
+    goal = tip + rng.uniform(0.3, 1.0) * _unit(forward + rng.normal(scale=0.6, size=3))
+    heading = _unit(forward + rng.normal(scale=0.4, size=3)) if rng.random() < 0.7 else None
+    return np.vstack(points), rays, tip, goal, heading
+
+
+def test_the_compiled_search_equals_its_plain_numpy_statement():
+    """On 400 random scenes the compiled :func:`find_opening` gives what ``tests/_opening_reference.py`` (the
+    documented rules, one numpy operation each) gives: the same None, or the same centre to 1e-12 m; a fifth
+    or more of the scenes have an opening, a tenth or more none (the comparison is not vacuous either way)."""
+    from tests._opening_reference import find_opening as reference
+
+    rng = np.random.default_rng(2031)
+    found = 0
+    configs = (OpeningConfig(), OpeningConfig(min_per_quadrant=1, near=0.03, passed=0.04, slab=0.04))
+    for i in range(400):
+        points, rays, tip, goal, heading = _random_scene(rng)
+        cfg = configs[i % 2]
+        radius = 0.25 if heading is not None else 0.0
+        got = find_opening(points, rays, tip, goal, cfg, heading=heading, min_turn_radius=radius)
+        want = reference(points, rays, tip, goal, cfg, heading=heading, min_turn_radius=radius)
+        assert (got is None) == (want is None), f"scene {i}: compiled {got}, reference {want}"
+        if got is not None:
+            np.testing.assert_allclose(got, want, rtol=0.0, atol=1e-12, err_msg=f"scene {i}")
+            found += 1
+    assert 0.2 * 400 <= found <= 0.9 * 400
+
+
+def test_the_opening_moves_with_the_scene():
+    """Moved (every point, ray, tip and goal) by a translation with all three components non-zero, a scene's
+    opening moves by it too (to 1e-9 m); turned by a rotation, a ray 0-2 cm off a circular rim's centre still finds
+    the rotated centre to 2 mm across the ray (the quadrants' axes turn with the ray, not with the scene)."""
+    rng = np.random.default_rng(7)
+    moved = 0
+    for _ in range(100):
+        points, rays, tip, goal, heading = _random_scene(rng)
+        t = rng.uniform(-3.0, 3.0, 3)
+        before = find_opening(points, rays, tip, goal, OpeningConfig(), heading=heading, min_turn_radius=0.25)
+        after = find_opening(points + t, FarRays(rays.origins + t, rays.directions, rays.lengths), tip + t, goal + t,
+                             OpeningConfig(), heading=heading, min_turn_radius=0.25)
+        assert (before is None) == (after is None)
+        if before is not None:
+            np.testing.assert_allclose(after, before + t, atol=1e-9)
+            moved += 1
+    assert moved >= 20
+    centre, tip = np.array([0.3, 0.0, 0.0]), np.zeros(3)
+    for _ in range(40):
+        q, _ = np.linalg.qr(rng.normal(size=(3, 3)))  # a random rotation (or reflection: the rules care for neither)
+        offset = np.array([0.0, *rng.uniform(-0.014, 0.014, 2)])
+        rim = _ring(centre, np.array([1.0, 0.0, 0.0]), 0.075, n=64) @ q.T + 1.5
+        d = _unit(q @ (centre + offset))
+        found = find_opening(rim, FarRays(np.array([tip + 1.5]), d[None], np.array([0.4])), tip + 1.5,
+                             q @ np.array([1.0, 0.2, -0.1]) + 1.5, OpeningConfig())
+        assert found is not None
+        true = q @ centre + 1.5
+        across = (found - true) - ((found - true) @ d) * d
+        assert np.linalg.norm(across) < 0.002
+        assert abs((found - true) @ d) <= 0.031
