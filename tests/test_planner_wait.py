@@ -9,6 +9,8 @@ searches again and goes on.  No simulator: the map is filled by hand.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from _clouds import box_surface
@@ -18,6 +20,7 @@ import navstack.planner.recovery as recovery_module
 from navstack.planner.escape import WAIT_ESCAPE_PERIODS, EscapeConfig, Wait
 from navstack.planner.field import FieldPlanner, FieldPlannerConfig
 from navstack.planner.map import MapConfig
+from navstack.planner.search import PARTIAL, REACHED
 
 DT = 1.0 / 30.0
 X = np.array([1.0, 0.0, 0.0])
@@ -286,3 +289,24 @@ def test_begin_forgetting_once_forgetting_changes_nothing():
     at = smap.motion_sensed_at
     smap.update(*_rays_through(_front_face()[:3]))
     assert smap.begin_forgetting() == 0 and smap.motion_sensed_at == at
+
+
+def test_a_stall_whose_searches_spent_their_budget_does_not_say_boxed_in(monkeypatch):
+    """The searches back along the path ran out of expansions (``PARTIAL``; here made so) rather than proving
+    there is no way (``NO_PATH``): the stall reason names the budget instead of "boxed in" (a held-out vessel
+    world's stall said "boxed in" where a search of 100,000 expansions found a way)."""
+    planner = _boxed_in_after_a_run(FieldPlannerConfig(escape=EscapeConfig(patience=0.0)))
+    real = planner._plan_from
+
+    def plan_from(p, h, k, at=None, budget=None):
+        plan = real(p, h, k, at, budget)
+        return replace(plan, status=PARTIAL) if at is not None and plan.status != REACHED else plan
+
+    monkeypatch.setattr(planner, "_plan_from", plan_from)
+    _step_until(planner, lambda p: p.stalled or p.mode == "wait")
+    assert planner.stalled
+    assert "boxed in" not in planner.stall_reason
+    assert planner.stall_reason.endswith(
+        "no way on found from here, nor from any point up to 1.5 m back along the path, within a search's budget "
+        f"(SearchConfig.max_expansions = {planner.config.search.max_expansions}; a way may exist that is longer or "
+        "more winding)")

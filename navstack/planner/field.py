@@ -233,6 +233,7 @@ class FieldPlanner(Recovery):
         self._command_goal_s = 0.0
         self._last_branch: float | None = None
         self._wait: Wait | None = None  # boxed in, waiting for the map to change
+        self._budget_spent = False  # the last escape's searches spent their budget (not boxed in: the stall reason)
         self._goal_look_backs: dict[int, int] = {}
         self.look_backs = 0
 

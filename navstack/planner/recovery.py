@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 from navstack.path import MIN_ARC, PathMemory
 from navstack.planner.escape import WAIT_ESCAPE_PERIODS, Wait, find_branch_point
 from navstack.planner.map import SensedMap
-from navstack.planner.search import NO_PATH, REACHED, Plan
+from navstack.planner.search import NO_PATH, PARTIAL, REACHED, Plan
 from navstack.planner.steering import PlanFollower
 from navstack.planner.types import TipCommand
 from navstack.retreat import Retreat
@@ -58,6 +58,7 @@ class Recovery:
     retreats: int
     look_backs: int
     _pending: tuple[float, Plan | Wait] | None
+    _budget_spent: bool  # a search of the last escape (or its fallback) spent its budget without a way on
     _wait: Wait | None
     _goal_retreats: dict[int, int]
     _goal_look_backs: dict[int, int]
@@ -97,9 +98,16 @@ class Recovery:
         limit = self.path.end_arc_length
         if self._last_branch is not None and limit - self._last_branch < 0.3:
             limit = self._last_branch - self.config.escape.step
-        found = find_branch_point(self.path, lambda p, h, at: self._plan_from(p, h, self.command_goal, at),
-                                  self.config.escape, before=limit,
+        spent: list[bool] = []
+
+        def plan_at(p: NDArray[np.float64], h: NDArray[np.float64], at: float) -> Plan:
+            plan = self._plan_from(p, h, self.command_goal, at)
+            spent.append(plan.status == PARTIAL)
+            return plan
+
+        found = find_branch_point(self.path, plan_at, self.config.escape, before=limit,
                                   cost_floor=lambda p: self._cost_floor(p, self.command_goal))
+        self._budget_spent = any(spent) or (fallback is not None and fallback.status == PARTIAL)
         if found is None:
             if fallback is not None:
                 self.follower = PlanFollower(fallback, self.config.steering, self.follower.v)
@@ -123,8 +131,12 @@ class Recovery:
         self.mode = "retreat"
 
     def _boxed_in(self) -> str:
-        return (f"no way on from here (boxed in), nor from any point up to {self.config.escape.max_back:g} m back "
-                f"along the path")
+        """Why no way on was found (the last escape's searches): boxed in, or a search spent its budget."""
+        back = f"nor from any point up to {self.config.escape.max_back:g} m back along the path"
+        if self._budget_spent:
+            return (f"no way on found from here, {back}, within a search's budget (SearchConfig.max_expansions = "
+                    f"{self.config.search.max_expansions}; a way may exist that is longer or more winding)")
+        return f"no way on from here (boxed in), {back}"
 
     def _step_wait(self) -> TipCommand:
         """Boxed in: hold the command; search again as :meth:`Wait.next_search` says (from the command, or an
