@@ -96,6 +96,11 @@ class TrialConfig:
         for name, cls in (("servo", ServoConfig), ("sensor", SensorConfig), ("field_planner", FieldPlannerConfig),
                           ("reactive_planner", PlannerConfig)):
             instance(self, name, cls)
+        opening = self.field_planner.opening
+        if opening.enabled and opening.far_range > self.sensor.max_range:
+            raise ValueError(f"TrialConfig.field_planner.opening.far_range ({opening.far_range:g} m) exceeds "
+                             f"TrialConfig.sensor.max_range ({self.sensor.max_range:g} m): no ray could count as far, "
+                             "so no opening would ever be seen (lower it, or set OpeningConfig(enabled=False))")
 
 
 @dataclass

@@ -240,3 +240,22 @@ def test_run_into_a_file_is_bad_input(tmp_path, capsys):
     target.write_text("")
     assert main(["run", str(WORLDS / "u_trap.json"), "--out", str(target), "--planner", "scripted"]) == 2
     assert "taken" in capsys.readouterr().err
+
+
+def test_an_opening_far_range_beyond_the_sensors_reach_is_refused():
+    """``OpeningConfig.far_range`` above the sensor's range would silently turn seen openings off (no ray goes that
+    far): refused naming both fields; equal to the range, or with openings off, accepted."""
+    from navstack.planner.field import FieldPlannerConfig
+    from navstack.planner.opening import OpeningConfig
+    from navstack.sensing import SensorConfig
+
+    def config(far: float, enabled: bool = True, max_range: float = 0.4) -> TrialConfig:
+        return TrialConfig(sensor=SensorConfig(max_range=max_range),
+                           field_planner=FieldPlannerConfig(opening=OpeningConfig(enabled=enabled, far_range=far)))
+
+    with pytest.raises(ValueError, match=r"field_planner\.opening\.far_range \(0\.5 m\) exceeds "
+                                         r"TrialConfig\.sensor\.max_range \(0\.4 m\)"):
+        config(0.5)
+    assert config(0.4).field_planner.opening.far_range == 0.4
+    assert not config(0.5, enabled=False).field_planner.opening.enabled
+    assert config(0.5, max_range=0.6).sensor.max_range == 0.6

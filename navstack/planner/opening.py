@@ -37,7 +37,8 @@ class OpeningConfig:
     Attributes:
         enabled: look for openings at all.
         far_range: a ray that told the map something (a hit, or free space up to the sensor's range) counts as
-            far if it went at least this long without a hit [m].
+            far if it went at least this long without a hit [m]; at most the sensor's range (``TrialConfig``
+            refuses more: no opening would ever be seen).
         ring_radius: sensed points within this distance of the ray's axis [m] make the ring.
         slab: ... and within half this distance along the ray of the candidate point [m].
         min_clearance: the ring's nearest point is at least this far from the ray's axis [m] (the tip fits).
