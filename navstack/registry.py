@@ -81,7 +81,8 @@ class PlannerContext:
     control period [s]; ``config`` the trial's :class:`navstack.trial.TrialConfig` (planner parameters).
     The robot's own shape at t = 0: ``arm`` (k, 3) points along the axes of the arm's capsules (frames
     1..9), ``arm_radius`` [m] their radius, ``flange`` (3,) the flange J6 (frame 9), where the serpentine
-    begins.  Nothing says whether obstacles move: a planner senses that (spec 2b).
+    begins; ``lathe_axis`` (3,) the lathe bed's unit axis and ``lathe_travel`` (lo, hi) how far it may still
+    move along it from the start [m].  Nothing says whether obstacles move: a planner senses that (spec 2b).
     """
 
     start: NDArray[np.float64]
@@ -93,6 +94,8 @@ class PlannerContext:
     arm: NDArray[np.float64] | None = None
     arm_radius: float = 0.06
     flange: NDArray[np.float64] | None = None
+    lathe_axis: NDArray[np.float64] | None = None
+    lathe_travel: tuple[float, float] = (-np.inf, np.inf)
 
 
 PLANNERS: dict[str, PlannerEntry] = {}

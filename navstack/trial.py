@@ -317,7 +317,7 @@ def make_field_planner(ctx):
     from navstack.planner.field import FieldPlanner
     from navstack.planner.search import ArmShape
 
-    arm = None if ctx.arm is None else ArmShape(ctx.arm, ctx.flange, ctx.arm_radius)
+    arm = None if ctx.arm is None else ArmShape(ctx.arm, ctx.flange, ctx.arm_radius, ctx.lathe_axis, ctx.lathe_travel)
     return FieldPlanner(ctx.start, ctx.heading, ctx.goals, ctx.tolerances, ctx.config.field_planner, arm=arm)
 
 
@@ -465,7 +465,8 @@ class _Simulation:
         arm_frames = np.array([self._to_world(F[i, :3, 3]) for i in range(1, 10)])
         context = PlannerContext(start=tip0, heading=heading0, goals=self.goals, tolerances=self.tolerances,
                                  dt=self.dt, config=cfg, arm=segment_samples(arm_frames[:-1], arm_frames[1:], 0.05),
-                                 arm_radius=world.robot.arm_radius, flange=arm_frames[-1])
+                                 arm_radius=world.robot.arm_radius, flange=arm_frames[-1],
+                                 **self._lathe())
         self.planner = load(entry.factory)(context)
         self.sensor = None
         self.estimator = None
@@ -493,6 +494,18 @@ class _Simulation:
         self.closed = False
 
     # ---- frames ---------------------------------------------------------
+    def _lathe(self) -> dict[str, Any]:
+        """The lathe bed's unit axis in the world and how far it may still move along it from ``q0`` [m]
+        (frame 1's origin at the joint's two limits; the planner's :class:`ArmShape` fields)."""
+        q = self.q0.copy()
+        ends = []
+        for value in (self.chain.lower[0], self.chain.upper[0], self.q0[0]):
+            q[0] = value
+            ends.append(self._to_world(self.chain.frames(q)[1, :3, 3]))
+        a, b, p = ends
+        axis = (b - a) / np.linalg.norm(b - a)
+        return {"lathe_axis": axis, "lathe_travel": (min(float((a - p) @ axis), 0.0), max(float((b - p) @ axis), 0.0))}
+
     def _to_world(self, p_base: np.ndarray) -> np.ndarray:
         return self.R0 @ p_base + self.p0
 

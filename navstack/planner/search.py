@@ -146,11 +146,20 @@ class ArmShape:
     """The robot's own arm at the start: ``points`` (k, 3) along its capsules' axes [m], ``flange`` (3,) the
     flange J6 where the serpentine begins [m], ``radius`` the capsules' radius [m].  The lathe bed carries
     the arm after the serpentine, in about this posture: the planner checks it translated by the flange's
-    displacement along the planned path."""
+    displacement along the planned path.
+
+    ``axis`` (3,): the lathe bed's unit axis [-], and ``travel`` (lo, hi): how far the bed may still move
+    along it from the start [m] (its joint range minus the start).  With them the arm is translated only by
+    the part of the flange's displacement the bed can make (along the axis, within its travel); the rest
+    the arm's own joints must make, so its capsules keep that much more clearance
+    (:func:`_arm_shifted_clear`).  ``axis`` None: translated by the whole displacement."""
 
     points: NDArray[np.float64]
     flange: NDArray[np.float64]
     radius: float
+    axis: NDArray[np.float64] | None = None
+    travel: tuple[float, float] = (-np.inf, np.inf)
+    _carry: NDArray[np.float64] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:  # checked contiguous float arrays, once: the kernels take them every step
         points = np.ascontiguousarray(self.points, dtype=np.float64)
@@ -160,20 +169,35 @@ class ArmShape:
         if flange.shape != (3,) or not np.isfinite(flange).all():
             raise ValueError(f"ArmShape.flange must be a finite 3-vector [m], got shape {flange.shape}")
         positive(self, "radius")
+        axis = np.zeros(3) if self.axis is None else np.asarray(self.axis, dtype=np.float64)
+        norm = float(np.linalg.norm(axis)) if axis.shape == (3,) and np.isfinite(axis).all() else 0.0
+        if self.axis is not None and abs(norm - 1.0) > 1e-6:
+            raise ValueError(f"ArmShape.axis must be a unit 3-vector or None, got {np.asarray(self.axis).tolist()}")
+        travel = np.asarray(self.travel, dtype=np.float64) if not isinstance(self.travel, str) else np.zeros(0)
+        if travel.shape != (2,) or np.isnan(travel).any() or travel[0] > 0.0 or travel[1] < 0.0:
+            raise ValueError(f"ArmShape.travel must be (lo <= 0, hi >= 0) [m], got {self.travel!r}")
         object.__setattr__(self, "points", points)
         object.__setattr__(self, "flange", flange)
         object.__setattr__(self, "radius", float(self.radius))
+        object.__setattr__(self, "travel", (float(travel[0]), float(travel[1])))
+        carry = np.concatenate([flange, axis / max(norm, 1e-300), travel])
+        object.__setattr__(self, "_carry", np.ascontiguousarray(carry))
+
+    @property
+    def carry(self) -> NDArray[np.float64]:
+        """The kernels' (8,) view: the flange [m], the lathe's unit axis (zero: none) and its travel [m]."""
+        return self._carry
 
 
-_NO_ARM = (np.zeros((0, 3)), np.zeros(3))
+_NO_ARM = (np.zeros((0, 3)), np.zeros(8))
 
 
 def _arm_arrays(arm: ArmShape | None, config: SearchConfig) -> tuple[NDArray, NDArray, float]:
-    """The kernels' view of the arm: its axis points, its flange and the reach its surface keeps [m]
-    (no points and reach 0 without an arm)."""
+    """The kernels' view of the arm: its axis points, its :attr:`ArmShape.carry` and the reach its surface
+    keeps [m] (no points and reach 0 without an arm)."""
     if arm is None:
         return _NO_ARM[0], _NO_ARM[1], 0.0
-    return arm.points, arm.flange, arm.radius + config.arm_margin
+    return arm.points, arm.carry, arm.radius + config.arm_margin
 
 
 @dataclass(frozen=True)
@@ -464,15 +488,27 @@ def _flange_clear(pts, r, occ, start, S, origin, bucket, bdims):  # pragma: no c
 
 
 @kernel
-def _arm_shifted_clear(pts, arm_pts, flange, r, occ, start, S, origin, bucket,
+def _arm_shifted_clear(pts, arm_pts, carry, r, occ, start, S, origin, bucket,
                        bdims):  # pragma: no cover - jitted
-    """The arm's axis ``arm_pts`` translated by the flange's displacement (chain point 5 minus ``flange``)
-    keeps ``r`` from every surface point: the lathe bed carries the arm along behind the serpentine, in
-    about its starting posture."""
-    dx, dy, dz = pts[5, 0] - flange[0], pts[5, 1] - flange[1], pts[5, 2] - flange[2]
+    """The arm's axis ``arm_pts``, carried by the lathe bed after the flange, keeps its clearance from
+    every surface point: the bed carries the arm along behind the serpentine, in about its starting posture.
+
+    ``carry`` = [the flange at the start (3), the lathe's unit axis (3), its travel lo, hi].  The flange's
+    displacement d (chain point 5 minus the start's flange) is split: the bed makes t = d . axis, clipped
+    to the travel, and translates the whole arm by t axis; the rest, e = d - t axis, the arm's own joints
+    must make, moving its links off the translated posture by about |e| (the flange by exactly that).  So
+    the translated arm keeps ``r + |e|``.  A zero axis: translated by the whole d, keeping ``r``."""
+    dx, dy, dz = pts[5, 0] - carry[0], pts[5, 1] - carry[1], pts[5, 2] - carry[2]
+    ax, ay, az = carry[3], carry[4], carry[5]
+    rr = r
+    if ax * ax + ay * ay + az * az > 0.0:
+        t = min(max(dx * ax + dy * ay + dz * az, carry[6]), carry[7])
+        ex, ey, ez = dx - t * ax, dy - t * ay, dz - t * az
+        rr = r + np.sqrt(ex * ex + ey * ey + ez * ez)
+        dx, dy, dz = t * ax, t * ay, t * az
     for i in range(arm_pts.shape[0]):
-        if distance_below(arm_pts[i, 0] + dx, arm_pts[i, 1] + dy, arm_pts[i, 2] + dz, r, occ, start, S,
-                          origin, bucket, bdims) < r:
+        if distance_below(arm_pts[i, 0] + dx, arm_pts[i, 1] + dy, arm_pts[i, 2] + dz, rr, occ, start, S,
+                          origin, bucket, bdims) < rr:
             return False
     return True
 
@@ -494,14 +530,14 @@ def _body_clear(qx, qy, qz, node, NP, NPAR, hist, L, r_link, r_arm, line, pts, o
 
 
 @kernel
-def _arm_clear(qx, qy, qz, node, NP, NPAR, hist, L, arm_pts, flange, r, line, pts, occ, start, S, origin,
+def _arm_clear(qx, qy, qz, node, NP, NPAR, hist, L, arm_pts, carry, r, line, pts, occ, start, S, origin,
                bucket, bdims):  # pragma: no cover - jitted
     """True if the arm, carried with the flange of the chain behind q (:func:`_arm_shifted_clear`), keeps ``r``
     from every surface point."""
     n = _backward(qx, qy, qz, node, NP, NPAR, hist, 6.5 * L, line)
     if _chain(line, n, L, 6, pts) < 6:
         return True
-    return _arm_shifted_clear(pts, arm_pts, flange, r, occ, start, S, origin, bucket, bdims)
+    return _arm_shifted_clear(pts, arm_pts, carry, r, occ, start, S, origin, bucket, bdims)
 
 
 @numba.njit(cache=True)
@@ -637,17 +673,18 @@ def _shot(node, k, g, goals, reach, kappa_max, ds, step, box_lo, box_hi, max_len
 
 @numba.njit(cache=True)
 def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, rep, hist,
-                   nav, nav_origin, nav_cell, arm_pts, flange, occ,
+                   nav, nav_origin, nav_cell, arm_pts, carry, occ,
                    start, S, origin, bucket, bdims, free, fcell, fdims, box_lo, box_hi,
                    NP, NH, NK, NG, NPAR, NKAP, NDIR, NEND, NL, NTURN):  # pragma: no cover - jitted
     """Hybrid A* (see the module docstring).  Node arrays are preallocated by the caller.
 
     ``cfg`` = [step, samples, cell, heading_bin, epsilon, w_turn, max_expansions, max_length,
     start_relax, r_start, kappa_max, link_length, arm_clearance, length_factor, length_slack, arm_reach]
-    (``r_start``: :func:`start_radius`).  ``arm_pts`` (k, 3): the arm's axis at the start, ``flange`` (3,) the
-    flange there; a state is expanded only if the arm, carried along with the flange (the sixth chord
-    point behind it), keeps ``arm_reach`` from every surface point (no ``arm_pts``: the flange and the
-    point one link behind it keep ``arm_clearance`` instead, checked with each primitive).
+    (``r_start``: :func:`start_radius`).  ``arm_pts`` (k, 3): the arm's axis at the start, ``carry`` (8,) the
+    flange there, the lathe's axis and travel (:attr:`ArmShape.carry`); a state is expanded only if the
+    arm, carried along with the flange (the sixth chord point behind it), keeps ``arm_reach`` from every
+    surface point (no ``arm_pts``: the flange and the point one link behind it keep ``arm_clearance``
+    instead, checked with each primitive).
     A goal whose ball is smaller than the samples' spacing (``reach < step / samples``) can fall between
     two samples of every arc: from a state within ``2 step`` of it, the search also tries the arc that ends
     exactly on it (:func:`_shot`).  Returns (status, final node, expansions, n_nodes).
@@ -716,7 +753,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
             if best_g.get(key, _ABSENT) == _CLOSED:
                 continue
             best_g[key] = _CLOSED
-            if use_arm and not _arm_clear(px, py, pz, NPAR[node], NP, NPAR, hist, link, arm_pts, flange, arm_reach,
+            if use_arm and not _arm_clear(px, py, pz, NPAR[node], NP, NPAR, hist, link, arm_pts, carry, arm_reach,
                                           line, chain_pts, occ, start, S, origin, bucket, bdims):
                 continue  # the arm, carried with the flange, would meet a sensed surface
         if k >= n_goals:
@@ -854,7 +891,7 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
 
 
 @numba.njit(cache=True)
-def _path_clear(pts, hist, every, link, r_block, r_arm, arm_pts, flange, arm_reach, occ, start, S, origin,
+def _path_clear(pts, hist, every, link, r_block, r_arm, arm_pts, carry, arm_reach, occ, start, S, origin,
                 bucket, bdims):  # pragma: no cover - jitted
     """True if the tip path ``pts`` keeps ``r_block`` from every surface point at each sample, and the
     body behind it (checked every ``every`` samples, the history ``hist`` behind ``pts[0]``) is clear: the
@@ -881,7 +918,7 @@ def _path_clear(pts, hist, every, link, r_block, r_arm, arm_pts, flange, arm_rea
                                 origin, bucket, bdims):
             return False
         if arm_pts.shape[0] > 0:
-            if not _arm_shifted_clear(chain_pts, arm_pts, flange, arm_reach, occ, start, S, origin,
+            if not _arm_shifted_clear(chain_pts, arm_pts, carry, arm_reach, occ, start, S, origin,
                                       bucket, bdims):
                 return False
         elif not _flange_clear(chain_pts, r_arm, occ, start, S, origin, bucket, bdims):
@@ -918,9 +955,9 @@ def still_clear(smap: SensedMap, plan: Plan, s: float, history: ArrayLike, confi
     hist = np.asarray(history, dtype=np.float64).reshape(-1, 3)
     spacing = float(np.median(np.diff(plan.arc))) if len(plan.arc) > 1 else 1.0
     every = max(1, int(round(config.step / max(spacing, 1e-6))))
-    arm_pts, flange, reach = _arm_arrays(arm, config)
+    arm_pts, carry, reach = _arm_arrays(arm, config)
     return bool(_path_clear(pts, hist, every, config.link_length, repulsion.r_block,
-                            min(config.arm_clearance, smap.config.bucket), arm_pts, flange, reach,
+                            min(config.arm_clearance, smap.config.bucket), arm_pts, carry, reach,
                             *point_index(smap)))
 
 
@@ -1023,7 +1060,7 @@ def search(smap: SensedMap, start: ArrayLike, heading: ArrayLike, goals: ArrayLi
     buf = _BUFFERS.get(cap)
     if buf is None:
         buf = _BUFFERS[cap] = _Buffers(cap)
-    arm_pts, flange, arm_reach = _arm_arrays(arm, config)
+    arm_pts, carry, arm_reach = _arm_arrays(arm, config)
     cfg = np.array([config.step, config.samples, config.cell, config.heading_bin, config.epsilon, config.w_turn,
                     config.max_expansions, config.max_length, config.start_relax,
                     start_radius(smap, p0, hist, config, repulsion),
@@ -1035,7 +1072,7 @@ def search(smap: SensedMap, start: ArrayLike, heading: ArrayLike, goals: ArrayLi
     box_lo = smap.origin
     box_hi = smap.origin + smap.free_dims * fcell - 1e-9
     status, last, expansions, _ = _search_kernel(
-        p0, h0, k0, G, reach, rest, kap, dc, ds, cfg, rep, hist, nav.wave, nav.origin, nav.cell, arm_pts, flange,
+        p0, h0, k0, G, reach, rest, kap, dc, ds, cfg, rep, hist, nav.wave, nav.origin, nav.cell, arm_pts, carry,
         *point_index(smap), free, fcell, fdims,
         box_lo, box_hi, buf.P, buf.H, buf.K, buf.G, buf.PAR, buf.KAP, buf.DIR, buf.END, buf.L, buf.TURN)
     if status == PARTIAL and last == 0:
