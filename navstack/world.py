@@ -542,7 +542,7 @@ def _q0(ctx: _Ctx, path: str, v: Any) -> FloatArray:
         lo, hi = jpl.LOWER[i], jpl.UPPER[i]
         if x < lo - JOINT_LIMIT_SLACK or x > hi + JOINT_LIMIT_SLACK:
             unit = "m" if jpl.PRISMATIC[i] else "rad"
-            raise ctx.error(f"{path}[{i}]", f"expected a value in [{lo:.6g}, {hi:.6g}] {unit} "
+            raise ctx.error(f"{path}[{i}]", f"expected a value in [{lo:.10g}, {hi:.10g}] {unit} "
                                             f"(limits of joint {i + 1}), got {_describe(x)}")
     q = np.clip(q, jpl.LOWER, jpl.UPPER)  # within the slack: onto the limit (the controller refuses beyond it)
     q.setflags(write=False)

@@ -13,7 +13,7 @@ from _worlds import BASE_POSITION, TIP, world_data
 from scipy.spatial.transform import Rotation
 
 from navstack.cli import main
-from navstack.sim.mesh_inside import is_closed, points_inside, solids, winding_numbers
+from navstack.sim.mesh_inside import WELD, is_closed, points_inside, solids, welded, winding_numbers
 from navstack.trial import check_start
 from navstack.world import Mesh, WorldError, load_world
 
@@ -186,3 +186,45 @@ def test_a_closed_part_beside_an_open_one_still_has_its_inside(tmp_path):
     assert not is_closed(both.vertices, both.faces) and len(solids(both.vertices, both.faces)) == 1
     mesh = Mesh(path=tmp_path / "mixed.stl", position=np.zeros(3), rpy=np.zeros(3), scale=1.0)
     assert points_inside(mesh, np.array([[0.0, 0, 0], [3.0, 0, 0]])).tolist() == [True, False]
+
+
+def _cracked(mesh: trimesh.Trimesh, crack: float, seed: int = 3) -> trimesh.Trimesh:
+    """``mesh`` as a triangle soup (each triangle its own corners, as CAD exports write them), every corner
+    nudged by up to ``crack`` [m] along each axis: closed to its user, cracks of up to ``2 sqrt(3) crack``."""
+    soup = mesh.vertices[mesh.faces].reshape(-1, 3)
+    soup = soup + np.random.default_rng(seed).uniform(-crack, crack, soup.shape)
+    return trimesh.Trimesh(soup, np.arange(len(soup)).reshape(-1, 3), process=False)
+
+
+@pytest.mark.parametrize("crack", [1e-7, 5e-6, 2e-5])
+def test_a_robot_inside_a_block_with_hairline_cracks_is_refused(tmp_path, crack):
+    """A closed block written as a soup whose corners miss each other by micrometres (an audit's wrong
+    SUCCESS: not watertight, so no inside, and the trial ran inside the solid and reached its goals)."""
+    block = _cracked(trimesh.creation.box(extents=[6.0, 6.0, 6.0]), crack)
+    assert not trimesh.Trimesh(block.vertices, block.faces).is_watertight  # what trimesh alone says
+    block.export(tmp_path / "block.obj")
+    data = world_data({"type": "mesh", "path": "block.obj", "position": list(map(float, BASE_POSITION))})
+    (tmp_path / "world.json").write_text(json.dumps(data))
+    with pytest.raises(WorldError, match="is inside this mesh"):
+        check_start(load_world(str(tmp_path / "world.json")))
+
+
+def test_cracks_wider_than_the_weld_leave_an_open_surface():
+    """The weld is for rounding, not for gaps: cracks of a few WELD stay open (no inside, as before)."""
+    box = trimesh.creation.box(extents=[2.0, 1.0, 0.5])
+    assert is_closed(*_unpack(_cracked(box, 0.2 * WELD)))
+    assert not is_closed(*_unpack(_cracked(box, 5.0 * WELD)))
+
+
+def _unpack(mesh: trimesh.Trimesh):
+    return np.asarray(mesh.vertices), np.asarray(mesh.faces)
+
+
+def test_welded_merges_chains_of_near_vertices_and_drops_the_faces_they_collapse():
+    v = np.array([[0.0, 0, 0], [0.6 * WELD, 0, 0], [1.2 * WELD, 0, 0], [1.0, 0, 0], [0.0, 1.0, 0], [5 * WELD, 0, 0]])
+    f = np.array([[0, 3, 4], [2, 3, 4], [0, 1, 3], [5, 3, 4]])
+    wv, wf = welded(v, f)
+    np.testing.assert_array_equal(wv, v)  # the vertices are kept; the faces are renumbered
+    # 0, 1, 2 chain within WELD of each other (0 and 2 are 1.2 WELD apart): one vertex, 0; 5 stays apart
+    np.testing.assert_array_equal(wf, [[0, 3, 4], [0, 3, 4], [5, 3, 4]])
+    assert welded(v[[0, 3, 4]], [[0, 1, 2]])[1].tolist() == [[0, 1, 2]]  # nothing near: unchanged

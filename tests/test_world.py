@@ -253,6 +253,8 @@ ERROR_CASES = [
     ("cylinder-degenerate", _set("obstacles[0].p1", [1.2, -0.5, 1.0]), "obstacles[0].p1", "different from p0"),
     ("q0-serpentine-limit", _set("robot.q0[8]", 2.0), "robot.q0[8]", "limits of joint 9"),
     ("q0-lathe-limit", _set("robot.q0[0]", 2.5), "robot.q0[0]", "limits of joint 1"),
+    # just beyond 75 deg (1.3089969 rad) and its slack: the message's limit must not read as the value given
+    ("q0-limit-digits", _set("robot.q0[8]", 1.309), "robot.q0[8]", "[-1.308996939, 1.308996939] rad"),
     ("goals-empty", _set("goals", []), "goals", "at least one goal"),
     ("type-unknown", _set("obstacles[1].type", "cone"), "obstacles[1].type", '"cylinder"'),
     ("type-missing", _del("obstacles[2].type"), "obstacles[2].type", "missing"),
