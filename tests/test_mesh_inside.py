@@ -177,6 +177,26 @@ def test_overlapping_closed_parts_each_hold_their_inside_whatever_their_orientat
         check_start(load_world(world))
 
 
+@pytest.mark.parametrize("inner_turned", [True, False])
+def test_a_part_wholly_inside_another_is_a_cavity_and_one_inside_that_a_solid(tmp_path, inner_turned):
+    """A room (a 6 m box) with 0.5 m thick walls, written as its outer and inner surfaces in one mesh, and a
+    pillar standing in it: a point in the wall or the pillar is inside, one in the room is not, whatever
+    way the inner surface's faces turn (it was refused: the robot standing in the room was "inside" the
+    outer surface).  The pillar stands on the floor and holds up the ceiling (its ends on the inner surface)."""
+    inner = trimesh.creation.box(extents=[5.0, 5.0, 5.0])
+    if inner_turned:
+        inner.invert()
+    pillar = trimesh.creation.box(extents=[0.4, 0.4, 5.0]).apply_translation([1.5, 1.5, 0.0])
+    room = trimesh.util.concatenate([trimesh.creation.box(extents=[6.0, 6.0, 6.0]), inner, pillar])
+    room.export(tmp_path / "room.stl")
+    mesh = Mesh(path=tmp_path / "room.stl", position=np.zeros(3), rpy=np.zeros(3), scale=1.0)
+    points = np.array([[0.0, 0, 0], [2.75, 0, 0], [1.5, 1.5, 0.0], [3.5, 0, 0], [0.0, -2.9, 1.0]])
+    # in the room, in the wall, in the pillar, outside, in the wall
+    assert points_inside(mesh, points).tolist() == [False, True, True, False, True]
+    world = _block_world(tmp_path, room, BASE_POSITION)  # the robot stands in the room
+    check_start(load_world(world))
+
+
 def test_a_closed_part_beside_an_open_one_still_has_its_inside(tmp_path):
     closed = trimesh.creation.box(extents=[1.0, 1.0, 1.0])
     plate = trimesh.creation.box(extents=[1.0, 1.0, 0.1]).apply_translation([3.0, 0, 0])

@@ -12,7 +12,10 @@ winding numbers", SIGGRAPH 2013).  Each triangle's solid angle is Van Oosterom a
 ``is_watertight``, once vertices nearer than :data:`WELD` are welded and repeated triangles dropped) have an
 inside; an open surface has none and is never
 said to contain a point.  Each connected part is taken on its own, its faces' orientations made
-consistent first (:func:`solids`); a point is inside if any closed part holds it.  Points on
+consistent first (:func:`solids`).  Parts that overlap are one solid (their union), whatever their faces'
+orientation; a part wholly inside another is a cavity in it (a tank's or a room's inner wall: the robot
+stands in the cavity, not in the wall), a part inside that a solid again, and so on (:func:`nesting`): a
+point is inside if the innermost closed part holding it lies inside an even number of others.  Points on
 the surface itself are not meaningful here: the caller has already refused any contact with it.
 """
 
@@ -92,6 +95,36 @@ def solids(vertices: ArrayLike, faces: ArrayLike) -> list[tuple[NDArray[np.float
     return out
 
 
+NEST_SAMPLES = 2000
+"""At most this many of a part's vertices (its extreme ones among them) are tested to tell whether the part
+lies wholly inside another (:func:`nesting`)."""
+
+
+def nesting(parts: list[tuple[NDArray[np.float64], NDArray[np.int64]]]) -> list[int]:
+    """Per closed part of :func:`solids`, how many other parts hold it wholly: each of its tested vertices
+    (all of them, or :data:`NEST_SAMPLES` with the six extreme ones) inside the other part, once moved
+    1e-4 of the way towards the part's centroid (a vertex on the other's surface, a pillar standing on a
+    room's floor, has no meaningful winding number: 0 or 1/2 as rounding falls).  Parts whose surfaces cross
+    (overlapping solids) hold neither the other: depth 0 both, a union."""
+    tested = []
+    for v, _ in parts:
+        if len(v) > NEST_SAMPLES:
+            extreme = np.concatenate([v.argmin(axis=0), v.argmax(axis=0)])
+            rest = np.random.default_rng(0).choice(len(v), NEST_SAMPLES - 6, replace=False)
+            v = v[np.unique(np.concatenate([extreme, rest]))]
+        tested.append(v + 1e-4 * (v.mean(axis=0) - v))
+    lo = [v.min(axis=0) for v, _ in parts]
+    hi = [v.max(axis=0) for v, _ in parts]
+    depth = [0] * len(parts)
+    for b, pts in enumerate(tested):
+        for a, part in enumerate(parts):
+            if a == b or np.any(lo[b] < lo[a] - WELD) or np.any(hi[b] > hi[a] + WELD):
+                continue
+            if np.all(np.abs(winding_numbers(*part, pts)) > 0.5):
+                depth[b] += 1
+    return depth
+
+
 def is_closed(vertices: ArrayLike, faces: ArrayLike) -> bool:
     """Whether the triangles ``faces`` (F, 3) of ``vertices`` (V, 3) close up: every part is closed
     (:func:`solids`)."""
@@ -112,8 +145,9 @@ def points_inside(mesh: Mesh, points: ArrayLike) -> NDArray[np.bool_]:
     local = (pts - mesh.position) @ R  # R.T @ (p - position), row by row
     inside = np.all((local >= vertices.min(axis=0)) & (local <= vertices.max(axis=0)), axis=1)  # in its box
     parts = solids(vertices, faces) if inside.any() else []  # a surface with a hole has no inside
-    in_any = np.zeros(int(inside.sum()), dtype=bool)
-    for part in parts:
-        in_any |= np.abs(winding_numbers(*part, local[inside])) > 0.5
-    inside[inside] = in_any
+    innermost = np.full(int(inside.sum()), -1)  # the depth of the innermost part holding each point
+    for part, depth in zip(parts, nesting(parts), strict=True):
+        holds = np.abs(winding_numbers(*part, local[inside])) > 0.5
+        innermost[holds & (depth > innermost)] = depth
+    inside[inside] = (innermost >= 0) & (innermost % 2 == 0)
     return inside
