@@ -224,7 +224,8 @@ def _errors(records: Sequence[Mapping[str, Any]]) -> str:
     """How many trials ended in ``error`` (as ``navstack report`` counts them: failures, but of the run, not of
     the method), or nothing when none did."""
     n = sum(1 for r in records if r.get("reason") == "error")
-    return f"; {n} ended in `error` (the trial crashed or exceeded its wall-clock limit), counted as failures" \
+    return f"; {n} ended in `error` (the trial crashed, exceeded its wall-clock limit, or its world file was " \
+        "refused as bad input), counted as failures" \
         if n else ""
 
 

@@ -523,8 +523,8 @@ def _intro_section(s: Summary, source: str, truncated_tail: bool, planned: int |
         f"Source: `{source}`, {s.n_trials} trials; {len(s.methods)} method(s) (controller/planner), "
         f"{len(s.families)} world famil{'y' if len(s.families) == 1 else 'ies'}, {len(s.difficulties)} difficulty "
         "level(s). A success is every goal reached in order, with no contact, within the world's time limit. "
-        "Intervals are 95 % Wilson score intervals. Trials ending in `error` (the trial crashed or exceeded its "
-        f"wall-clock limit: {s.errors} here) count as failures.")
+        "Intervals are 95 % Wilson score intervals. Trials ending in `error` (the trial crashed, exceeded its "
+        f"wall-clock limit, or its world file was refused as bad input: {s.errors} here) count as failures.")
     if planned is not None and planned > s.n_trials:
         lines += ["", f"**Note: the sweep is unfinished**: {s.n_trials} of the {planned} trials its `sweep.json` "
                   "lists are recorded; the rates below cover those only. Rerun the sweep's command to finish it."]

@@ -265,8 +265,8 @@ def test_the_header_counts_the_trials_that_ended_in_error():
     broken = [dict(r, reason="error") if i in (3, 4) else r for i, r in enumerate(recs)]
     text = compare.render_markdown(compare.compare(recs, broken), "A", "B", recs, broken)
     assert "- A: `A`, 5 trials (no provenance)\n" in text
-    assert "- B: `B`, 5 trials (no provenance); 2 ended in `error` (the trial crashed or exceeded its wall-clock " \
-           "limit), counted as failures\n" in text
+    assert "- B: `B`, 5 trials (no provenance); 2 ended in `error` (the trial crashed, exceeded its wall-clock " \
+           "limit, or its world file was refused as bad input), counted as failures\n" in text
 
 
 def test_the_plot_draws_every_row_once_with_its_own_interval(tmp_path, monkeypatch):

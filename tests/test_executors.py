@@ -164,7 +164,23 @@ def test_pool_runs_trials_and_reports_timeouts_and_deaths(tmp_path):
         assert ok.result()["result"]["world"] == "w00" and ok.result()["error"] is None
         assert hung.result()["error"] == "trial exceeded the 5 s wall-clock limit; worker killed"
         assert died.result()["error"].startswith("worker process died (exit code 7)")
+        assert died.result()["error"].endswith(", 3 times")  # run again twice: it always dies
         assert pool.submit(job, None).result()["result"] == ok.result()["result"]  # the pool goes on
+    finally:
+        pool.close(cancel=True)
+
+
+def test_a_trial_whose_worker_is_killed_once_is_run_again(tmp_path):
+    """A worker killed under its trial (an audit killed one with SIGKILL): the trial used to be an ``error``
+    line for good, which no resume ever replaced; now it is run again, as the Ray backend does."""
+    job = _job(tmp_path)
+    once = TrialJob(spec=job.spec, runner=fake_runner, world_text=json.dumps(
+        {"name": "w00", "extra": {"behaviour": "die_once", "marker": str(tmp_path / "died")}}))
+    pool = WorkerPool(1, runner=fake_runner)
+    try:
+        reply = pool.submit(once, None).result()
+        assert (tmp_path / "died").exists()  # it did die once
+        assert reply["error"] is None and reply["result"] == pool.submit(job, None).result()["result"]
     finally:
         pool.close(cancel=True)
 

@@ -73,6 +73,11 @@ def fake_runner(world, *, controller, planner, seed, out_dir=None):
         threading.Event().wait()  # nobody ever sets it: only the trial timeout ends this
     if behaviour == "die":
         os._exit(7)
+    if behaviour == "die_once":  # killed once (the OOM killer, a user's kill), fine when run again
+        marker = Path(extra["marker"])
+        if not marker.exists():
+            marker.write_text("died once")
+            os._exit(9)
     if behaviour == "die_parent":  # kill the process that started this worker (a Ray worker; never local)
         os.kill(os.getppid(), signal.SIGKILL)
         threading.Event().wait()
@@ -263,6 +268,26 @@ def test_raising_hanging_and_dying_trials_are_errors_and_sweep_completes(tmp_pat
         assert r["metrics"]["min_clearance"] is None
     assert "fake_runner" in recs["x_raise__000__slither__field"]["traceback"]
     assert all(recs[f"w{i:02d}__000__slither__field"]["reason"] in ("reached", "collision") for i in range(3))
+
+
+def _retracting_and_raising(family: str, seed: int, difficulty: float) -> dict:
+    world = fake_generator(family, seed, difficulty)
+    world["retract"] = True  # a family whose worlds ask for retraction themselves (dead-end), no --retract
+    world["extra"]["behaviour"] = "raise"
+    return world
+
+
+def test_an_error_line_names_its_world_and_holds_retracted_when_the_world_asks_for_it(tmp_path, families):
+    """An audit's error line of a generated dead-end world: ``world`` was the id, not the world's name, and
+    ``retracted`` was missing though the world asks for retraction (spec 2a)."""
+    specs = build_specs(SweepConfig(families=("truss",), count=1))
+    run_sweep(specs, tmp_path / "out", jobs=1, runner=fake_runner, generator=_retracting_and_raising,
+              progress=False)
+    (rec,) = lines_of(tmp_path / "out" / "results.jsonl")
+    world = json.loads((tmp_path / "out" / specs[0].world_file).read_text())
+    assert rec["reason"] == "error" and "fake failure" in rec["error"]
+    assert rec["world"] == world["name"] != specs[0].world_id
+    assert rec["retracted"] is False
 
 
 def test_generated_sweep_is_reproducible_and_writes_worlds(tmp_path, families):

@@ -326,9 +326,10 @@ class WorkerPool:
     Each worker is its own one-process pebble ``ProcessPool`` (a *lane*) and holds at most one trial, so
     pebble can never blame one trial for another's crash (in a shared pool an instantly dying worker can be
     charged with the trial it finished just before, measured by ``tools/bench_executors.py``). A trial over its
-    limit has its worker killed and replaced (error reply); a worker that dies during a trial gives an error
-    reply for that trial; a lane that pebble declares broken is replaced and its trial run again (at most
-    :data:`MAX_ATTEMPTS` times); a lane whose worker never finished starting raises :class:`SweepWorkerError`.
+    limit has its worker killed and replaced (error reply); a trial whose worker dies under it (killed from
+    outside, or crashed) is run again, and a lane that pebble declares broken is replaced and its trial run
+    again, each at most :data:`MAX_ATTEMPTS` times in all (then an error reply); a lane whose worker never
+    finished starting raises :class:`SweepWorkerError`.
     """
 
     def __init__(self, workers: int, *, runner: Runner | None = None, log_path: str | None = None) -> None:
@@ -413,8 +414,14 @@ class WorkerPool:
         except TimeoutError:
             reply = error_reply(f"trial exceeded the {task.timeout:g} s wall-clock limit; worker killed",
                                 float(task.timeout or elapsed))
-        except ProcessExpired as exc:
-            reply = error_reply(f"worker process died (exit code {exc.exitcode}) while running the trial", elapsed)
+        except ProcessExpired as exc:  # killed from outside (the OOM killer, a user) or crashed (a segfault)
+            if task.attempt >= MAX_ATTEMPTS:
+                reply = error_reply(f"worker process died (exit code {exc.exitcode}) while running the trial, "
+                                    f"{task.attempt} times", elapsed)
+            else:  # run it again, as the Ray backend does: a sweep loses no trial to a worker killed once
+                task.attempt += 1
+                with self._lock:
+                    self._queue.appendleft(task)
         except BrokenProcessPool as exc:
             was_started = lane.started.is_set()
             self._replace(lane)
