@@ -335,7 +335,10 @@ def run_compare(dir_a: str | Path, dir_b: str | Path, out: str | Path | None = N
         out = Path(out)
         if out.exists() and not out.is_dir():
             raise ReportError(f"--out: {out} exists and is not a directory")
-        out.mkdir(parents=True, exist_ok=True)
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise ReportError(f"--out: cannot create {out}: {exc.strerror or exc}") from None
         if plots:
             plot = write_plot(rows, out / "compare.png").name
     text = render_markdown(rows, str(dir_a), str(dir_b), recs[0], recs[1], plot)

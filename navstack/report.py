@@ -432,7 +432,8 @@ def load_results(path: str | Path) -> Loaded:
     except SweepError as exc:
         raise ReportError(str(exc)) from exc
     if not rf.records:
-        raise ReportError(f"{path}: no trial results in the file (it is empty)")
+        why = "its only line was cut short (a killed sweep: rerun its command)" if rf.truncated_tail else "it is empty"
+        raise ReportError(f"{path}: no trial results in the file ({why})")
     lines = rf.line_numbers
     _check_records(rf.records, lambda i: f"{path}, line {lines[i]}", lambda i: f"line {lines[i]}")
     planned = _check_against_sweep(path, rf.records, lines)
@@ -583,8 +584,9 @@ def _failed_row(r: Mapping[str, Any]) -> tuple[str, str, str, str, str, str]:
     def text(key: str) -> str:
         return "-" if r.get(key) is None else str(r[key])
 
+    sim_time = "-" if r.get("sim_time") is None else f"{float(r['sim_time']):.1f}"
     return (text("trial_id"), text("world"), method_label((r["controller"], r["planner"])), str(r["reason"]),
-            text("goals_reached"), text("sim_time"))
+            text("goals_reached"), sim_time)
 
 
 MAX_FAILED_LISTED = 100

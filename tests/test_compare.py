@@ -351,3 +351,16 @@ def test_a_family_named_with_a_pipe_or_a_line_break_stays_in_its_cell():
     assert len(rows) == 1 + 3  # header, two families, (all)
     assert all(r.replace("\\|", "").count("|") == 13 for r in rows), rows
     assert "| slither/field | pipes\\|racks |" in text and "| slither/field | two lines |" in text
+
+
+def test_an_out_folder_that_cannot_be_made_is_named(tmp_path):
+    """An audit's case: ``--out /proc/nope`` printed a bare ``[Errno 2] ...``."""
+    from navstack.report import ReportError
+
+    recs = sweep_records({("truss", i): i < 3 for i in range(5)})
+    for name in ("a", "b"):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "results.jsonl").write_text("".join(json.dumps(r) + "\n" for r in recs))
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(ReportError, match=r"--out: cannot create .*file.sub"):
+        compare.run_compare(tmp_path / "a", tmp_path / "b", out=tmp_path / "file" / "sub", plots=False)

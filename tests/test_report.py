@@ -554,3 +554,20 @@ def test_a_line_of_another_sweep_configuration_is_refused_beside_its_sweep_json(
     loose.mkdir()
     write_jsonl(loose / "results.jsonl", [line(specs[0]), line(other[1])])
     write_report(loose, plots=False)
+
+
+def test_a_results_file_of_one_cut_off_line_is_not_called_empty(tmp_path):
+    """An audit's case: a killed sweep's only line, cut short, was reported as "(it is empty)"."""
+    (tmp_path / "results.jsonl").write_text(json.dumps(synthetic_records()[0])[:40])
+    with pytest.raises(ReportError, match=r"only line was cut short \(a killed sweep"):
+        write_report(tmp_path)
+    (tmp_path / "results.jsonl").write_text("")
+    with pytest.raises(ReportError, match=r"\(it is empty\)"):
+        write_report(tmp_path)
+
+
+def test_the_failures_table_gives_sim_time_to_a_tenth_of_a_second(tmp_path):
+    recs = [dict(r, success=False, reason="timeout", sim_time=22.266666667) for r in synthetic_records()[:2]]
+    write_jsonl(tmp_path / "results.jsonl", recs)
+    text = write_report(tmp_path, plots=False).read_text()
+    assert "| 22.3 |" in text and "22.266666667" not in text
