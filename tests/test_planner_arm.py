@@ -29,6 +29,12 @@ def _map(points) -> SensedMap:
     return smap
 
 
+def _carried_clear(chain, arm: ArmShape, r: float, smap: SensedMap) -> bool:
+    """The compiled check, with its work arrays."""
+    k = len(arm.points)
+    return bool(_arm_shifted_clear(chain, arm.points, arm.carry, r, *point_index(smap), np.empty((k, 3)), np.empty(k)))
+
+
 def _reference_clear(chain5, arm_pts, flange, axis, travel, reach, points) -> bool:
     """The rule in plain numpy: split the flange's displacement d into the bed's part t axis (t = d . axis
     clipped to ``travel``) and the rest e; the arm translated by t axis keeps reach + |e| from every point."""
@@ -60,7 +66,7 @@ def test_the_carried_arm_check_is_the_brute_force_rule_on_random_scenes():
         if abs(margin) < 1e-3:
             continue
         want = _reference_clear(chain[5], arm_pts, flange, axis, travel, reach, smap.points)
-        got = bool(_arm_shifted_clear(chain, arm.points, arm.carry, reach, *point_index(smap)))
+        got = bool(_carried_clear(chain, arm, reach, smap))
         assert got == want
         agree += 1
         both[want] += 1
@@ -75,13 +81,13 @@ def test_without_an_axis_the_arm_goes_with_the_whole_displacement():
     chain = np.zeros((8, 3))
     chain[5] = flange + [0.0, 0.3, 0.0]
     beside = _map([[-1.6, 0.3 + 0.07, 0.0]])  # 7 cm from the arm moved 0.3 m sideways
-    assert _arm_shifted_clear(chain, arm.points, arm.carry, 0.06, *point_index(beside))
+    assert _carried_clear(chain, arm, 0.06, beside)
     lathe = ArmShape(arm.points, flange, 0.06, np.array([1.0, 0.0, 0.0]))
     # the bed cannot move sideways: the arm stays on the axis and keeps 0.06 + 0.3, the point is 0.37 away
-    assert _arm_shifted_clear(chain, lathe.points, lathe.carry, 0.06, *point_index(beside))
+    assert _carried_clear(chain, lathe, 0.06, beside)
     near = _map([[-1.6, -0.35, 0.0]])  # on the other side, 0.35 < 0.36 from the arm the bed leaves in place
-    assert not _arm_shifted_clear(chain, lathe.points, lathe.carry, 0.06, *point_index(near))
-    assert _arm_shifted_clear(chain, arm.points, arm.carry, 0.06, *point_index(near))
+    assert not _carried_clear(chain, lathe, 0.06, near)
+    assert _carried_clear(chain, arm, 0.06, near)
 
 
 def _straight_plan(length: float, ds: float = 0.005) -> Plan:

@@ -47,7 +47,7 @@ from navstack.planner.potential import (
     navigation_function,
     wave_value,
 )
-from navstack.planner.proximity import distance_below, distances_below, point_index, segment_distance_below
+from navstack.planner.proximity import REACH, distance_below, distances_below, point_index, segment_distance_below
 from navstack.validate import flag, in_range, integer, non_negative, positive
 
 __all__ = ["NO_PATH", "PARTIAL", "REACHED", "ArmShape", "Plan", "SearchConfig", "only_the_arm_blocks", "search",
@@ -488,8 +488,8 @@ def _flange_clear(pts, r, occ, start, S, origin, bucket, bdims):  # pragma: no c
 
 
 @kernel
-def _arm_shifted_clear(pts, arm_pts, carry, r, occ, start, S, origin, bucket,
-                       bdims):  # pragma: no cover - jitted
+def _arm_shifted_clear(pts, arm_pts, carry, r, occ, start, S, origin, bucket, bdims, buf,
+                       out):  # pragma: no cover - jitted
     """The arm's axis ``arm_pts``, carried by the lathe bed after the flange, keeps its clearance from
     every surface point: the bed carries the arm along behind the serpentine, in about its starting posture.
 
@@ -497,7 +497,12 @@ def _arm_shifted_clear(pts, arm_pts, carry, r, occ, start, S, origin, bucket,
     displacement d (chain point 5 minus the start's flange) is split: the bed makes t = d . axis, clipped
     to the travel, and translates the whole arm by t axis; the rest, e = d - t axis, the arm's own joints
     must make, moving its links off the translated posture by about |e| (the flange by exactly that).  So
-    the translated arm keeps ``r + |e|``.  A zero axis: translated by the whole d, keeping ``r``."""
+    the translated arm keeps ``r + |e|``.  A zero axis: translated by the whole d, keeping ``r``.
+
+    A radius beyond the proximity mask's reach is asked of all the arm's points in one shared scan
+    (:func:`~navstack.planner.proximity.distances_below`, bit for bit the point-by-point distances), the
+    translated points in ``buf`` (k, 3) and their distances in ``out`` (k,): point by point, each point's scan
+    covers nearly the same buckets as its neighbours' 5 cm away (the 200-trial sweep: 12 % slower so)."""
     dx, dy, dz = pts[5, 0] - carry[0], pts[5, 1] - carry[1], pts[5, 2] - carry[2]
     ax, ay, az = carry[3], carry[4], carry[5]
     rr = r
@@ -506,7 +511,16 @@ def _arm_shifted_clear(pts, arm_pts, carry, r, occ, start, S, origin, bucket,
         ex, ey, ez = dx - t * ax, dy - t * ay, dz - t * az
         rr = r + np.sqrt(ex * ex + ey * ey + ez * ez)
         dx, dy, dz = t * ax, t * ay, t * az
-    for i in range(arm_pts.shape[0]):
+    k = arm_pts.shape[0]
+    if math.ceil(rr / bucket) > REACH:
+        for i in range(k):
+            buf[i, 0], buf[i, 1], buf[i, 2] = arm_pts[i, 0] + dx, arm_pts[i, 1] + dy, arm_pts[i, 2] + dz
+        distances_below(buf, k, rr, out, occ, start, S, origin, bucket, bdims)
+        for i in range(k):
+            if out[i] < rr:
+                return False
+        return True
+    for i in range(k):
         if distance_below(arm_pts[i, 0] + dx, arm_pts[i, 1] + dy, arm_pts[i, 2] + dz, rr, occ, start, S,
                           origin, bucket, bdims) < rr:
             return False
@@ -531,13 +545,13 @@ def _body_clear(qx, qy, qz, node, NP, NPAR, hist, L, r_link, r_arm, line, pts, o
 
 @kernel
 def _arm_clear(qx, qy, qz, node, NP, NPAR, hist, L, arm_pts, carry, r, line, pts, occ, start, S, origin,
-               bucket, bdims):  # pragma: no cover - jitted
+               bucket, bdims, buf, out):  # pragma: no cover - jitted
     """True if the arm, carried with the flange of the chain behind q (:func:`_arm_shifted_clear`), keeps ``r``
     from every surface point."""
     n = _backward(qx, qy, qz, node, NP, NPAR, hist, 6.5 * L, line)
     if _chain(line, n, L, 6, pts) < 6:
         return True
-    return _arm_shifted_clear(pts, arm_pts, carry, r, occ, start, S, origin, bucket, bdims)
+    return _arm_shifted_clear(pts, arm_pts, carry, r, occ, start, S, origin, bucket, bdims, buf, out)
 
 
 @numba.njit(cache=True)
@@ -706,6 +720,8 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
     arm_reach = cfg[15]
     line = np.empty((512, 3))
     chain_pts = np.empty((8, 3))  # the chain's points
+    arm_buf = np.empty((arm_pts.shape[0], 3))  # the carried arm's points and their distances (_arm_shifted_clear)
+    arm_out = np.empty(arm_pts.shape[0])
     samp = np.empty((n_samp, 3))
     samp_d = np.empty(n_samp)
     sh = np.empty((4 * n_samp + 4, 3))  # a goal shot's samples (at most 2 step * pi / 2 long)
@@ -754,7 +770,8 @@ def _search_kernel(p0, h0, k0, goals, reach, rest, kappas, dirs_c, dirs_s, cfg, 
                 continue
             best_g[key] = _CLOSED
             if use_arm and not _arm_clear(px, py, pz, NPAR[node], NP, NPAR, hist, link, arm_pts, carry, arm_reach,
-                                          line, chain_pts, occ, start, S, origin, bucket, bdims):
+                                          line, chain_pts, occ, start, S, origin, bucket, bdims, arm_buf,
+                                          arm_out):
                 continue  # the arm, carried with the flange, would meet a sensed surface
         if k >= n_goals:
             return 0, node, expansions, n_nodes
@@ -900,6 +917,8 @@ def _path_clear(pts, hist, every, link, r_block, r_arm, arm_pts, carry, arm_reac
     n = pts.shape[0]
     line = np.empty((n + hist.shape[0] + 2, 3))
     chain_pts = np.empty((8, 3))  # the chain's points
+    arm_buf = np.empty((arm_pts.shape[0], 3))  # the carried arm's points and their distances (_arm_shifted_clear)
+    arm_out = np.empty(arm_pts.shape[0])
     for i in range(n):
         if distance_below(pts[i, 0], pts[i, 1], pts[i, 2], r_block, occ, start, S, origin, bucket,
                           bdims) < r_block:
@@ -919,7 +938,7 @@ def _path_clear(pts, hist, every, link, r_block, r_arm, arm_pts, carry, arm_reac
             return False
         if arm_pts.shape[0] > 0:
             if not _arm_shifted_clear(chain_pts, arm_pts, carry, arm_reach, occ, start, S, origin,
-                                      bucket, bdims):
+                                      bucket, bdims, arm_buf, arm_out):
                 return False
         elif not _flange_clear(chain_pts, r_arm, occ, start, S, origin, bucket, bdims):
             return False
