@@ -164,9 +164,14 @@ def test_the_trial_gives_the_planner_the_lathe_axis_and_travel_pybullet_reports(
     ({"travel": (np.nan, 1.0)}, "ArmShape.travel"),
     ({"travel": (1.0,)}, "ArmShape.travel"),
     ({"travel": "far"}, "ArmShape.travel"),
+    ({"travel": None}, "ArmShape.travel"),
+    ({"axis": "x"}, "ArmShape.axis"),
+    ({"axis": [1.0, "y", 0.0]}, "ArmShape.axis"),
 ])
 def test_a_bad_lathe_axis_or_travel_is_refused_naming_the_field(kwargs, match):
     good = {"points": np.zeros((4, 3)), "flange": np.zeros(3), "radius": 0.06, "axis": np.array([0.0, 0.0, 1.0])}
     with pytest.raises(ValueError, match=match):
         ArmShape(**{**good, **kwargs})
     np.testing.assert_array_equal(ArmShape(**good).carry, [0, 0, 0, 0, 0, 1, -np.inf, np.inf])
+    listed = ArmShape(**{**good, "axis": [0, 0, 1], "travel": [-1, 2]})  # plain lists: kept as float arrays
+    assert listed.axis.dtype == np.float64 and listed.travel == (-1.0, 2.0)

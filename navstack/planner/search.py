@@ -169,24 +169,34 @@ class ArmShape:
         if flange.shape != (3,) or not np.isfinite(flange).all():
             raise ValueError(f"ArmShape.flange must be a finite 3-vector [m], got shape {flange.shape}")
         positive(self, "radius")
-        axis = np.zeros(3) if self.axis is None else np.asarray(self.axis, dtype=np.float64)
-        norm = float(np.linalg.norm(axis)) if axis.shape == (3,) and np.isfinite(axis).all() else 0.0
+        axis, travel = _floats(self.axis, (3,)), _floats(self.travel, (2,))
+        norm = float(np.linalg.norm(axis)) if axis is not None and np.isfinite(axis).all() else 0.0
         if self.axis is not None and abs(norm - 1.0) > 1e-6:
-            raise ValueError(f"ArmShape.axis must be a unit 3-vector or None, got {np.asarray(self.axis).tolist()}")
-        travel = np.asarray(self.travel, dtype=np.float64) if not isinstance(self.travel, str) else np.zeros(0)
-        if travel.shape != (2,) or np.isnan(travel).any() or travel[0] > 0.0 or travel[1] < 0.0:
+            raise ValueError(f"ArmShape.axis must be a unit 3-vector or None, got {self.axis!r}")
+        if travel is None or np.isnan(travel).any() or travel[0] > 0.0 or travel[1] < 0.0:
             raise ValueError(f"ArmShape.travel must be (lo <= 0, hi >= 0) [m], got {self.travel!r}")
         object.__setattr__(self, "points", points)
         object.__setattr__(self, "flange", flange)
         object.__setattr__(self, "radius", float(self.radius))
+        object.__setattr__(self, "axis", None if self.axis is None else axis / norm)
         object.__setattr__(self, "travel", (float(travel[0]), float(travel[1])))
-        carry = np.concatenate([flange, axis / max(norm, 1e-300), travel])
+        axis = np.zeros(3) if self.axis is None else self.axis
+        carry = np.concatenate([flange, axis, travel])
         object.__setattr__(self, "_carry", np.ascontiguousarray(carry))
 
     @property
     def carry(self) -> NDArray[np.float64]:
         """The kernels' (8,) view: the flange [m], the lathe's unit axis (zero: none) and its travel [m]."""
         return self._carry
+
+
+def _floats(value: object, shape: tuple[int, ...]) -> NDArray[np.float64] | None:
+    """``value`` as a float array of ``shape``, or None (not numbers, or another shape)."""
+    try:
+        out = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        return None
+    return out if out.shape == shape else None
 
 
 _NO_ARM = (np.zeros((0, 3)), np.zeros(8))
