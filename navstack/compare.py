@@ -230,11 +230,14 @@ def _errors(records: Sequence[Mapping[str, Any]]) -> str:
 
 
 def render_markdown(rows: Sequence[Row], dir_a: str, dir_b: str, records_a: Sequence[Mapping[str, Any]],
-                    records_b: Sequence[Mapping[str, Any]], plot: str | None = None) -> str:
-    """The comparison as Markdown; ``plot`` is the PNG's path relative to the Markdown file."""
+                    records_b: Sequence[Mapping[str, Any]], plot: str | None = None,
+                    notes: Sequence[str] = ()) -> str:
+    """The comparison as Markdown; ``plot`` is the PNG's path relative to the Markdown file; ``notes``: lines
+    said under the two sweeps (:func:`_load_notes`)."""
     lines = ["# navstack sweep comparison", "",
              f"- A: `{dir_a}`, {len(records_a)} trials ({_identities(records_a)}){_errors(records_a)}",
              f"- B: `{dir_b}`, {len(records_b)} trials ({_identities(records_b)}){_errors(records_b)}", "",
+             *(line for note in notes for line in (note, "")),
              "Difference = success rate of B minus A, with a 95 % confidence interval and a two-sided p-value. "
              "Paired rows (both sweeps ran the same worlds with the same seeds): Newcombe's interval for paired "
              "data and McNemar's exact test; `A only` / `B only` count the trials only A / only B succeeded "
@@ -315,16 +318,30 @@ def write_plot(rows: Sequence[Row], path: Path) -> Path:
     return path
 
 
+def _load_notes(name: str, loaded: Any) -> list[str]:
+    """What ``navstack report`` would say of sweep ``name``'s results file (a :class:`navstack.report.Loaded`):
+    unfinished, or its cut-off last line ignored."""
+    notes = []
+    if loaded.planned is not None and loaded.planned > len(loaded.records):
+        notes.append(f"**Note: {name} is unfinished**: {len(loaded.records)} of the {loaded.planned} trials its "
+                     "`sweep.json` lists are recorded; its rates cover those only.")
+    if loaded.truncated_tail:
+        notes.append(f"Note: the last line of {name}'s results file was cut short (a killed sweep) and is ignored.")
+    return notes
+
+
 def run_compare(dir_a: str | Path, dir_b: str | Path, out: str | Path | None = None,
                 plots: bool = True) -> str:
     """Compare the sweeps in ``dir_a`` and ``dir_b``; returns the Markdown (also written to ``out`` if given).
 
     Raises :class:`navstack.report.ReportError` for unusable results or nothing to compare."""
-    recs = []
-    for d in (dir_a, dir_b):
+    recs, notes = [], []
+    for name, d in (("A", dir_a), ("B", dir_b)):
         if not Path(d).is_dir():
             raise ReportError(f"{d}: not a directory")
-        recs.append(load_results(Path(d) / "results.jsonl").records)
+        loaded = load_results(Path(d) / "results.jsonl")
+        recs.append(loaded.records)
+        notes += _load_notes(name, loaded)
     rows = compare(*recs)
     if not rows:
         raise ReportError(f"{dir_a} and {dir_b} have no controller/planner in common "
@@ -341,7 +358,7 @@ def run_compare(dir_a: str | Path, dir_b: str | Path, out: str | Path | None = N
             raise ReportError(f"--out: cannot create {out}: {exc.strerror or exc}") from None
         if plots:
             plot = write_plot(rows, out / "compare.png").name
-    text = render_markdown(rows, str(dir_a), str(dir_b), recs[0], recs[1], plot)
+    text = render_markdown(rows, str(dir_a), str(dir_b), recs[0], recs[1], plot, notes)
     if out is not None:
         (Path(out) / "compare.md").write_text(text, encoding="utf-8")
     return text

@@ -364,3 +364,16 @@ def test_an_out_folder_that_cannot_be_made_is_named(tmp_path):
     (tmp_path / "file").write_text("x")
     with pytest.raises(ReportError, match=r"--out: cannot create .*file.sub"):
         compare.run_compare(tmp_path / "a", tmp_path / "b", out=tmp_path / "file" / "sub", plots=False)
+
+
+def test_a_cut_off_last_line_is_said_not_dropped_silently(tmp_path):
+    """An audit's case: ``compare`` dropped a truncated last line without a word (``report`` says it)."""
+    recs = sweep_records({("truss", i): i < 3 for i in range(5)})
+    for name in ("a", "b"):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "results.jsonl").write_text("".join(json.dumps(r) + "\n" for r in recs))
+    with open(tmp_path / "b" / "results.jsonl", "a") as fh:
+        fh.write(json.dumps(recs[0])[:30])
+    text = compare.run_compare(tmp_path / "a", tmp_path / "b", plots=False)
+    assert "Note: the last line of B's results file was cut short (a killed sweep) and is ignored." in text
+    assert "of A's results" not in text

@@ -539,6 +539,8 @@ def test_a_line_of_another_sweep_configuration_is_refused_beside_its_sweep_json(
     part = sweep_dir("part", [line(specs[0])])  # an interrupted sweep: the report says so (an audit, session 29)
     assert f"**Note: the sweep is unfinished**: 1 of the {len(specs)} trials its `sweep.json` lists" in \
         write_report(part, plots=False).read_text()
+    assert f"**Note: B is unfinished**: 1 of the {len(specs)} trials its `sweep.json` lists" in \
+        compare.run_compare(good, part, plots=False)  # compare says it too (an audit, session 32)
     for name, recs, needle in (
             ("seed", [line(specs[0]), line(other[1])], r"line 2: not a line of the sweep in .*'seed' is"),
             ("edited", [line(specs[0], controller="tip-only")], r"line 1: .*'controller' is 'tip-only'"),
