@@ -95,9 +95,11 @@ def solids(vertices: ArrayLike, faces: ArrayLike) -> list[tuple[NDArray[np.float
     return out
 
 
-NEST_SAMPLES = 2000
-"""At most this many of a part's vertices (its extreme ones among them) are tested to tell whether the part
-lies wholly inside another (:func:`nesting`)."""
+NEST_SAMPLES = 64
+"""At most this many of a part's vertices (its six extreme ones among them) are tested to tell whether the
+part lies wholly inside another (:func:`nesting`): each costs a winding number over the other part's faces
+(2,000 of them took 22 s for two 82,000-triangle shells, 64 take under a second).  A part that crosses
+another's surface by a sliver between the tested vertices would count as inside it."""
 
 
 def nesting(parts: list[tuple[NDArray[np.float64], NDArray[np.int64]]]) -> list[int]:
