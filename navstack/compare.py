@@ -35,7 +35,16 @@ from typing import Any
 
 import numpy as np
 
-from navstack.report import NO_FAMILY, POOLED, ReportError, family_label, load_results, md_cell, method_label
+from navstack.report import (
+    NO_FAMILY,
+    POOLED,
+    ReportError,
+    family_label,
+    load_results,
+    md_cell,
+    method_label,
+    sweep_notes,
+)
 
 ALL_FAMILIES = POOLED
 CONFIDENCE = 0.95
@@ -233,7 +242,7 @@ def render_markdown(rows: Sequence[Row], dir_a: str, dir_b: str, records_a: Sequ
                     records_b: Sequence[Mapping[str, Any]], plot: str | None = None,
                     notes: Sequence[str] = ()) -> str:
     """The comparison as Markdown; ``plot`` is the PNG's path relative to the Markdown file; ``notes``: lines
-    said under the two sweeps (:func:`_load_notes`)."""
+    said under the two sweeps (:func:`navstack.report.sweep_notes`)."""
     lines = ["# navstack sweep comparison", "",
              f"- A: `{dir_a}`, {len(records_a)} trials ({_identities(records_a)}){_errors(records_a)}",
              f"- B: `{dir_b}`, {len(records_b)} trials ({_identities(records_b)}){_errors(records_b)}", "",
@@ -318,18 +327,6 @@ def write_plot(rows: Sequence[Row], path: Path) -> Path:
     return path
 
 
-def _load_notes(name: str, loaded: Any) -> list[str]:
-    """What ``navstack report`` would say of sweep ``name``'s results file (a :class:`navstack.report.Loaded`):
-    unfinished, or its cut-off last line ignored."""
-    notes = []
-    if loaded.planned is not None and loaded.planned > len(loaded.records):
-        notes.append(f"**Note: {name} is unfinished**: {len(loaded.records)} of the {loaded.planned} trials its "
-                     "`sweep.json` lists are recorded; its rates cover those only.")
-    if loaded.truncated_tail:
-        notes.append(f"Note: the last line of {name}'s results file was cut short (a killed sweep) and is ignored.")
-    return notes
-
-
 def run_compare(dir_a: str | Path, dir_b: str | Path, out: str | Path | None = None,
                 plots: bool = True) -> str:
     """Compare the sweeps in ``dir_a`` and ``dir_b``; returns the Markdown (also written to ``out`` if given).
@@ -341,7 +338,8 @@ def run_compare(dir_a: str | Path, dir_b: str | Path, out: str | Path | None = N
             raise ReportError(f"{d}: not a directory")
         loaded = load_results(Path(d) / "results.jsonl")
         recs.append(loaded.records)
-        notes += _load_notes(name, loaded)
+        notes += sweep_notes(len(loaded.records), loaded.planned, loaded.truncated_tail, name,
+                             f"{name}'s results file")
     rows = compare(*recs)
     if not rows:
         raise ReportError(f"{dir_a} and {dir_b} have no controller/planner in common "

@@ -518,6 +518,20 @@ def render_markdown(s: Summary, *, source: str = "results.jsonl", plots: Sequenc
     return "\n".join(lines) + "\n"
 
 
+def sweep_notes(n_trials: int, planned: int | None, truncated_tail: bool, subject: str = "the sweep",
+                results: str = "the results file") -> list[str]:
+    """What a report or a comparison says of a results file: its sweep unfinished (``n_trials`` of the
+    ``planned`` its ``sweep.json`` lists), or its cut-off last line ignored."""
+    notes = []
+    if planned is not None and planned > n_trials:
+        notes.append(f"**Note: {subject} is unfinished**: {n_trials} of the {planned} trials its `sweep.json` "
+                     "lists are recorded; the rates below cover those only. Rerun the sweep's command to finish it.")
+    if truncated_tail:
+        notes.append(f"Note: the last line of {results} was cut short (a killed sweep) and is ignored. Resume the "
+                     "sweep to rerun that trial.")
+    return notes
+
+
 def _intro_section(s: Summary, source: str, truncated_tail: bool, planned: int | None = None) -> list[str]:
     lines = ["# navstack trial report", ""]
     lines.append(
@@ -526,12 +540,8 @@ def _intro_section(s: Summary, source: str, truncated_tail: bool, planned: int |
         "level(s). A success is every goal reached in order, with no contact, within the world's time limit. "
         "Intervals are 95 % Wilson score intervals. Trials ending in `error` (the trial crashed, exceeded its "
         f"wall-clock limit, or its world file was refused as bad input: {s.errors} here) count as failures.")
-    if planned is not None and planned > s.n_trials:
-        lines += ["", f"**Note: the sweep is unfinished**: {s.n_trials} of the {planned} trials its `sweep.json` "
-                  "lists are recorded; the rates below cover those only. Rerun the sweep's command to finish it."]
-    if truncated_tail:
-        lines += ["", "Note: the last line of the results file was cut short (a killed sweep) and is ignored; "
-                  "resume the sweep to rerun that trial."]
+    for note in sweep_notes(s.n_trials, planned, truncated_tail):
+        lines += ["", note]
     if s.mixed_versions:
         lines += ["", f"**Warning: this sweep mixes software versions** ({len(s.provenance)} different "
                   "navstack / commit / Python / PyBullet / numpy combinations, see Provenance below); its "

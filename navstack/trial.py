@@ -338,6 +338,17 @@ def make_scripted_planner(ctx):
     return ScriptedPlanner(ctx.start, ctx.heading, ctx.goals, ScriptedConfig(speed=ctx.config.scripted_speed))
 
 
+def lathe_travel(chain, T0: np.ndarray, q0: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Frame 1's origin in the world [m] (base transform ``T0``, the other joints at ``q0``) with the lathe bed
+    at its lower limit, at its upper limit, and at ``q0``: the segment the bed sweeps, and where it starts."""
+    q = np.array(q0, dtype=np.float64)
+    out = []
+    for value in (chain.lower[0], chain.upper[0], q0[0]):
+        q[0] = value
+        out.append(T0[:3, :3] @ chain.frames(q)[1, :3, 3] + T0[:3, 3])
+    return out[0], out[1], out[2]
+
+
 def check_reach(world) -> None:
     """Refuse goals that no configuration can reach (``WorldError`` naming the goal).
 
@@ -346,15 +357,9 @@ def check_reach(world) -> None:
     (an upper bound on the reach of everything beyond the lathe) is out of reach whatever the joints do.
     """
     chain = jpl_serpentine()
-    T0 = world.robot.base.transform()
-    q = chain.check(world.robot.q0).copy()
-    ends = []
-    for value in (chain.lower[0], chain.upper[0]):
-        q[0] = value
-        ends.append(T0[:3, :3] @ chain.frames(q)[1, :3, 3] + T0[:3, 3])
+    a, b, _ = lathe_travel(chain, world.robot.base.transform(), chain.check(world.robot.q0))
     origins = chain.frames(np.zeros(chain.n))[1:, :3, 3]
     reach = float(np.linalg.norm(np.diff(origins, axis=0), axis=1).sum())
-    a, b = ends
     ab = b - a
     for k, goal in enumerate(world.goals):
         g = np.asarray(goal.position, dtype=np.float64)
@@ -497,12 +502,7 @@ class _Simulation:
     def _lathe(self) -> dict[str, Any]:
         """The lathe bed's unit axis in the world and how far it may still move along it from ``q0`` [m]
         (frame 1's origin at the joint's two limits; the planner's :class:`ArmShape` fields)."""
-        q = self.q0.copy()
-        ends = []
-        for value in (self.chain.lower[0], self.chain.upper[0], self.q0[0]):
-            q[0] = value
-            ends.append(self._to_world(self.chain.frames(q)[1, :3, 3]))
-        a, b, p = ends
+        a, b, p = lathe_travel(self.chain, self.T0, self.q0)
         axis = (b - a) / np.linalg.norm(b - a)
         return {"lathe_axis": axis, "lathe_travel": (min(float((a - p) @ axis), 0.0), max(float((b - p) @ axis), 0.0))}
 
