@@ -534,10 +534,12 @@ def sweep_notes(n_trials: int, planned: int | None, truncated_tail: bool, subjec
 
 def _intro_section(s: Summary, source: str, truncated_tail: bool, planned: int | None = None) -> list[str]:
     lines = ["# navstack trial report", ""]
+    levels = sum(d is not None for d in s.difficulties)
+    unrated = " (and trials whose world gives none)" if levels < len(s.difficulties) else ""
     lines.append(
         f"Source: `{source}`, {s.n_trials} trials; {len(s.methods)} method(s) (controller/planner), "
-        f"{len(s.families)} world famil{'y' if len(s.families) == 1 else 'ies'}, {len(s.difficulties)} difficulty "
-        "level(s). A success is every goal reached in order, with no contact, within the world's time limit. "
+        f"{len(s.families)} world famil{'y' if len(s.families) == 1 else 'ies'}, {levels} difficulty "
+        f"level(s){unrated}. A success is every goal reached in order, with no contact, within the world's time limit. "
         "Intervals are 95 % Wilson score intervals. Trials ending in `error` (the trial crashed, exceeded its "
         f"wall-clock limit, or its world file was refused as bad input: {s.errors} here) count as failures.")
     for note in sweep_notes(s.n_trials, planned, truncated_tail):
@@ -626,7 +628,11 @@ def _failure_section(s: Summary, plot_of: Mapping[str, str]) -> list[str]:
 
 
 def _distribution_section(s: Summary, plot_of: Mapping[str, str]) -> list[str]:
-    lines = ["", "## Distributions"]
+    lines = ["", "## Distributions", "", "Each over the trials that report the metric (`n`): an `error` trial reports "
+             "none, so it is in no table below."]
+    if s.retracted_by_method:
+        lines[-1] += (" A trial of a world that asks for retraction succeeds when it is back out: its time to goal "
+                      "is that of the whole trial, backing out included.")
     for metric, title, png in METRICS:
         lines += ["", f"### {title}", ""]
         lines += _table(["controller", "planner", "n", "min", "p10", "median", "p90", "max", "mean"],

@@ -265,10 +265,10 @@ def _world_file_info(path: Path) -> tuple[str | None, float | None, bool]:
     (:data:`MAX_DIFFICULTY`), read as absent; a non-finite one (NaN, 1e400, a 400-digit integer) also makes
     the trial an ``error`` line, as the world check names the field."""
     try:
-        data = json.loads(path.read_text(encoding="utf-8-sig"))
-    except (OSError, ValueError, RecursionError):  # ValueError: bad JSON, bad UTF-8, > 4300-digit integer
+        data = _json_object(path.read_text(encoding="utf-8-sig"))
+    except (OSError, ValueError):  # ValueError: bad UTF-8
         return None, None, False
-    if not isinstance(data, dict):
+    if data is None:
         return None, None, False
     family = data.get("family") if isinstance(data.get("family"), str) else None
     retract = data.get("retract") is True
@@ -519,13 +519,20 @@ def _error_record(spec: TrialSpec, message: str, wall_time: float, tb: str | Non
     return rec
 
 
+def _json_object(text: str | None) -> dict[str, Any] | None:
+    """A world file's text parsed, unvalidated: the JSON object, or None (no text, not JSON: also nested too
+    deeply or an integer of over 4300 digits, or JSON but not an object)."""
+    try:
+        data = json.loads(text.lstrip("\ufeff")) if text else None
+    except (ValueError, RecursionError):
+        return None
+    return data if isinstance(data, dict) else None
+
+
 def _name_and_retract(world_text: str | None) -> tuple[str | None, bool]:
     """The ``name`` (a string, else None) and whether ``retract`` is true in a world file's text, unvalidated."""
-    try:
-        data = json.loads(world_text) if world_text else None
-    except (ValueError, RecursionError):
-        return None, False
-    if not isinstance(data, dict):
+    data = _json_object(world_text)
+    if data is None:
         return None, False
     name = data.get("name")
     return (name if isinstance(name, str) and name else None), data.get("retract") is True
@@ -572,6 +579,7 @@ def _prepare_dir(out_dir: Path, specs: Sequence[TrialSpec], config: dict[str, An
     hashes = _world_hashes(specs)
     if sweep_path.exists():
         stored = read_sweep_file(sweep_path)
+        _check_world_hashes(sweep_path, stored.get("world_files"), hashes)  # first: an edit changes the trials
         have = stored["trials"]
         if have != wanted:
             first = next((i for i, (a, b) in enumerate(zip(have, wanted, strict=False)) if a != b),
@@ -581,7 +589,6 @@ def _prepare_dir(out_dir: Path, specs: Sequence[TrialSpec], config: dict[str, An
             raise SweepError(
                 f"{out_dir} holds a different sweep ({len(have)} stored trials, {len(wanted)} requested; "
                 f"first difference at {what}). Resume it with its original arguments or choose a new --out.")
-        _check_world_hashes(sweep_path, stored.get("world_files"), hashes)
         return
     if (out_dir / RESULTS_NAME).exists():
         raise SweepError(f"{out_dir / RESULTS_NAME} exists but {sweep_path} does not: not a navstack sweep "

@@ -395,6 +395,7 @@ def test_retraction_column_counts_only_records_that_carry_the_key(tmp_path):
                 and (r["controller"], r["planner"]) == (c, p) and "retracted" in r]
         assert ret == (f"{sum(r['retracted'] for r in mine)}/{len(mine)}" if mine else "-")
     assert {r[0] for r in rows if r[-1] != "-"} == {"truss"}
+    assert "its time to goal is that of the whole trial, backing out included" in text
     recs[0]["retracted"] = "yes"
     write_jsonl(tmp_path / "results.jsonl", recs)
     with pytest.raises(ReportError, match="line 1: field 'retracted' must be true or false"):
@@ -573,3 +574,20 @@ def test_the_failures_table_gives_sim_time_to_a_tenth_of_a_second(tmp_path):
     write_jsonl(tmp_path / "results.jsonl", recs)
     text = write_report(tmp_path, plots=False).read_text()
     assert "| 22.3 |" in text and "22.266666667" not in text
+
+
+def test_the_intro_counts_difficulty_levels_and_not_a_missing_difficulty(tmp_path):
+    """An audit (session 32): a sweep of world files without a difficulty said '1 difficulty level(s)'."""
+    recs = synthetic_records()  # difficulties 0.2 and 0.8, and lines without one
+    write_jsonl(tmp_path / "results.jsonl", recs)
+    intro = write_report(tmp_path, plots=False).read_text().splitlines()[2]
+    assert "2 difficulty level(s) (and trials whose world gives none)" in intro
+    write_jsonl(tmp_path / "results.jsonl", [r for r in recs if r.get("difficulty") is None])
+    intro = write_report(tmp_path, plots=False).read_text().splitlines()[2]
+    assert "0 difficulty level(s) (and trials whose world gives none)" in intro
+    write_jsonl(tmp_path / "results.jsonl", [r for r in recs if r.get("difficulty") is not None])
+    intro = write_report(tmp_path, plots=False).read_text().splitlines()[2]
+    assert "2 difficulty level(s). A success" in intro
+    text = write_report(tmp_path, plots=False).read_text()
+    assert "an `error` trial reports none, so it is in no table below" in text  # the distributions' n
+    assert "backing out included" not in text  # no line of a retraction world

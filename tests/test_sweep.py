@@ -959,6 +959,27 @@ def test_a_sweep_whose_world_file_changed_is_not_resumed(tmp_path):
     assert run_sweep(specs[:2], out, jobs=1, runner=fake_runner, progress=False).skipped == 2
 
 
+def test_a_world_file_edited_so_its_trials_change_is_named_as_changed(tmp_path):
+    """An audit (session 32): a world file edited to invalid JSON, or to another family, changes its trials' specs
+    when the rerun builds them again, and the refusal spoke of a 'family' difference at a trial number.  The edit
+    is the reason, so the file is named as changed (the specs are compared after the files' hashes)."""
+    folder = write_worlds(tmp_path / "in", 2)
+    config = SweepConfig(worlds_dir=str(folder), count=1)
+    out = tmp_path / "out"
+    run_sweep(build_specs(config), out, jobs=1, runner=fake_runner, progress=False)
+    edited = folder / "w01.json"
+    original = edited.read_text()
+    for text in ('{"broken": ', json.dumps({**json.loads(original), "family": "another"})):
+        edited.write_text(text)
+        with pytest.raises(SweepError, match=rf"{edited} changed since the sweep in .* began") as caught:
+            run_sweep(build_specs(config), out, jobs=1, runner=fake_runner, progress=False)
+        assert "family" not in str(caught.value)
+    edited.write_text(original)
+    (folder / "w02.json").write_text(original)  # a file added: a different trial list, said as before
+    with pytest.raises(SweepError, match=r"holds a different sweep \(2 stored trials, 3 requested"):
+        run_sweep(build_specs(config), out, jobs=1, runner=fake_runner, progress=False)
+
+
 def test_a_sweep_whose_mesh_file_changed_is_not_resumed(tmp_path):
     """A mesh is part of its world: an audit (session 29) shrank and moved a world's STL between two runs of a
     sweep, and the rerun went on: one world name, a collision and a success from two different meshes.  The
