@@ -660,10 +660,24 @@ def _provenance_section(s: Summary) -> list[str]:
 # --------------------------------------------------------------------------------------------------------
 
 
+PLOT_FAMILIES = 24
+"""The most families a plot draws (the first in the tables' order; the tables list every one): an audit's
+results file of 1,500 families asked for a figure 6,000 inches wide and ran out of memory."""
+MAX_FIGURE_INCHES = 40.0
+"""The largest width or height of a plot [in] (so many methods cannot make a figure too large to draw)."""
+
+
 def _figure(width: float = 7.0, height: float = 4.0) -> Any:
     from matplotlib.figure import Figure
 
-    return Figure(figsize=(width, height), layout="constrained")
+    return Figure(figsize=(min(width, MAX_FIGURE_INCHES), min(height, MAX_FIGURE_INCHES)), layout="constrained")
+
+
+def _left_out(families: Sequence[str]) -> str | None:
+    """What a plot of the first :data:`PLOT_FAMILIES` of ``families`` says it leaves out, or None."""
+    if len(families) <= PLOT_FAMILIES:
+        return None
+    return f"the first {PLOT_FAMILIES} of {len(families)} families (the tables list every one)"
 
 
 def write_plots(s: Summary, folder: Path) -> list[Path]:
@@ -684,11 +698,14 @@ def _plot_success_rate(s: Summary, labels: Sequence[str], path: Path) -> Path:
     """Bars of each method's success rate per family and over all, with their intervals."""
     k = len(s.methods)
     width = 0.8 / max(k, 1)
-    fig = _figure(max(6.0, 1.2 * (len(s.families) + 1) * max(k, 1) * 0.6 + 3))
+    shown = list(s.families[:PLOT_FAMILIES])
+    fig = _figure(max(6.0, 1.2 * (len(shown) + 1) * max(k, 1) * 0.6 + 3))
     ax = fig.add_subplot()
-    groups = [*s.families, "all"]
+    if _left_out(s.families):
+        ax.set_title(_left_out(s.families), fontsize="small")
+    groups = [*shown, "all"]
     for j, m in enumerate(s.methods):
-        rates = [s.by_family[(f, m)] if (f, m) in s.by_family else None for f in s.families] + [s.by_method[m]]
+        rates = [s.by_family[(f, m)] if (f, m) in s.by_family else None for f in shown] + [s.by_method[m]]
         x = np.arange(len(groups)) + (j - (k - 1) / 2) * width
         y = np.array([r.rate if r else np.nan for r in rates])
         err = np.array([[r.rate - r.ci_low, r.ci_high - r.rate] if r else [0, 0] for r in rates]).T
@@ -708,9 +725,16 @@ def _plot_success_vs_difficulty(s: Summary, labels: Sequence[str], path: Path) -
     fams = [f for f in s.families if any((f, d, m) in s.by_cell for d in diffs for m in s.methods)]
     if len(diffs) <= 1 or not fams:
         return None
-    fig = _figure(4.0 * len(fams), 3.5)
-    axes = fig.subplots(1, len(fams), squeeze=False)[0]
-    for ax, fam in zip(axes, fams, strict=True):
+    shown = fams[:PLOT_FAMILIES]
+    cols = min(len(shown), 6)
+    rows = -(-len(shown) // cols)
+    fig = _figure(4.0 * cols, 3.5 * rows)
+    axes = fig.subplots(rows, cols, squeeze=False).ravel()
+    if _left_out(fams):
+        fig.suptitle(_left_out(fams), fontsize="small")
+    for ax in axes[len(shown):]:
+        ax.set_visible(False)
+    for ax, fam in zip(axes, shown, strict=False):
         for j, m in enumerate(s.methods):
             pts = [(d, s.by_cell[(fam, d, m)]) for d in diffs if (fam, d, m) in s.by_cell]
             if not pts:

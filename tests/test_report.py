@@ -591,3 +591,33 @@ def test_the_intro_counts_difficulty_levels_and_not_a_missing_difficulty(tmp_pat
     text = write_report(tmp_path, plots=False).read_text()
     assert "an `error` trial reports none, so it is in no table below" in text  # the distributions' n
     assert "backing out included" not in text  # no line of a retraction world
+
+
+def test_a_results_file_of_very_many_families_is_plotted_in_bounded_figures(tmp_path, monkeypatch):
+    """An audit (session 33): 1,500 families asked for figures 1,000-6,000 inches wide and the report ran 22
+    minutes into 4.9 GB before it was stopped.  The plots draw the first PLOT_FAMILIES families and say so (the
+    tables keep every one); no figure is larger than MAX_FIGURE_INCHES."""
+    from matplotlib.figure import Figure
+
+    sizes, titles = [], []
+    real_savefig = Figure.savefig
+
+    def savefig(self, path, *args, **kw):
+        sizes.append(tuple(self.get_size_inches()))
+        titles.extend(t for ax in self.axes for t in [ax.get_title()] if t)
+        if self._suptitle is not None:
+            titles.append(self._suptitle.get_text())
+        return real_savefig(self, path, *args, **kw)
+
+    monkeypatch.setattr(Figure, "savefig", savefig)
+    recs = [{"trial_id": f"t{i}", "controller": "slither", "planner": f"p{i % 2}", "success": i % 3 == 0,
+             "reason": "reached" if i % 3 == 0 else "timeout", "sim_time": 10.0, "family": f"fam{i // 3:04d}",
+             "difficulty": float(i % 3), "metrics": {"min_clearance": 0.01, "slither_deviation_max": 0.001}}
+            for i in range(3 * 300)]
+    write_jsonl(tmp_path / "results.jsonl", recs)
+    text = write_report(tmp_path).read_text()
+    assert len(md_table(text, "## Success rate per family (controllers side by side)")) == 300
+    assert sizes and max(max(w, h) for w, h in sizes) <= report.MAX_FIGURE_INCHES
+    left_out = f"the first {report.PLOT_FAMILIES} of 300 families (the tables list every one)"
+    assert titles.count(left_out) == 2  # the success-rate bars and the curves per difficulty
+    assert (tmp_path / "plots" / "success_vs_difficulty.png").exists()
