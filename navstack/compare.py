@@ -304,12 +304,25 @@ def _one_sided_families(rows: Sequence[Row], records_a: Sequence[Mapping[str, An
     return lines
 
 
+PLOT_ROWS = 60
+"""The most rows the plot draws: every method's pooled row, then family rows in the table's order (the table
+has every one; 1,500 families made a figure 600 inches tall)."""
+
+
 def write_plot(rows: Sequence[Row], path: Path) -> Path:
-    """A horizontal error-bar plot of every row's difference and interval."""
+    """A horizontal error-bar plot of the rows' differences and intervals (at most :data:`PLOT_ROWS`)."""
     from matplotlib.figure import Figure
 
+    every = rows
+    if len(rows) > PLOT_ROWS:
+        pooled = [r for r in rows if r.family == ALL_FAMILIES][:PLOT_ROWS]
+        rest = [r for r in rows if r.family != ALL_FAMILIES][:PLOT_ROWS - len(pooled)]
+        keep = {id(r) for r in pooled + rest}
+        rows = [r for r in rows if id(r) in keep]  # in the table's order
     fig = Figure(figsize=(7.5, 1.0 + 0.4 * len(rows)), layout="constrained")
     ax = fig.add_subplot()
+    if len(rows) < len(every):
+        ax.set_title(f"{len(rows)} of the {len(every)} rows (the table has every one)", fontsize="small")
     y = np.arange(len(rows))[::-1]
     for paired, marker, label in ((True, "o", "paired (McNemar)"), (False, "s", "unpaired (Fisher)")):
         idx = [i for i, r in enumerate(rows) if r.paired == paired]

@@ -377,3 +377,30 @@ def test_a_cut_off_last_line_is_said_not_dropped_silently(tmp_path):
     text = compare.run_compare(tmp_path / "a", tmp_path / "b", plots=False)
     assert "Note: the last line of B's results file was cut short (a killed sweep) and is ignored." in text
     assert "of A's results" not in text
+
+
+def test_the_plot_of_very_many_families_draws_the_pooled_row_and_at_most_plot_rows(tmp_path, monkeypatch):
+    """An audit (session 33) found a report of 1,500 families drawing figures thousands of inches large; the
+    comparison's plot grew 0.4 inch per row the same way.  It draws every method's pooled row and the first
+    family rows, at most PLOT_ROWS, and says so; the table keeps every row."""
+    from matplotlib.axes import Axes
+
+    drawn, titles = [], []
+    original_errorbar, original_title = Axes.errorbar, Axes.set_title
+    monkeypatch.setattr(Axes, "errorbar", lambda self, x, y, **kw: drawn.extend(y) or original_errorbar(
+        self, x, y, **kw))
+    monkeypatch.setattr(Axes, "set_title", lambda self, t, **kw: titles.append(t) or original_title(self, t, **kw))
+    ticks, original_yticks = [], Axes.set_yticks
+    monkeypatch.setattr(Axes, "set_yticks", lambda self, y, labels, **kw: ticks.extend(labels) or original_yticks(
+        self, y, labels, **kw))
+    rows = compare.compare(sweep_records({(f"f{k:03d}", i): (i + k) % 2 == 0 for k in range(200) for i in range(2)}),
+                           sweep_records({(f"f{k:03d}", i): i == 0 for k in range(200) for i in range(2)}))
+    assert len(rows) == 201 and rows[-1].family == compare.ALL_FAMILIES
+    compare.write_plot(rows, tmp_path / "compare.png")
+    assert len(drawn) == compare.PLOT_ROWS and sorted(drawn) == list(range(compare.PLOT_ROWS))
+    assert titles == [f"{compare.PLOT_ROWS} of the 201 rows (the table has every one)"]
+    assert ticks[-1].endswith(f"| {compare.ALL_FAMILIES}") and ticks[:-1] == [f"{r.label} | {r.family}" for r in
+                                                                             rows[:compare.PLOT_ROWS - 1]]
+    titles.clear()
+    compare.write_plot(rows[-3:], tmp_path / "few.png")
+    assert titles == []
