@@ -149,9 +149,34 @@ class Row:
         return m if self.method_a == self.method_b else f"{m} vs {method_label(self.method_b)}"
 
 
+WORLD_HASH = "_world_sha256"
+"""The key :func:`run_compare` adds to each record read from a sweep folder: the SHA-256 of its world file as
+that sweep's ``sweep.json`` stored it (when both sweeps store them), so an edited world is another world."""
+
+
 def trial_key(rec: Mapping[str, Any]) -> tuple[Any, ...]:
-    """What makes two records the same trial apart from the method: the world and the noise seed."""
-    return (rec.get("world_id", rec.get("world")), rec.get("world_seed"), rec.get("difficulty"), rec.get("seed"))
+    """What makes two records the same trial apart from the method: the world (its id, its name and, when
+    known, its file's SHA-256: two folders of world files may use the same file names for other worlds) and the
+    noise seed."""
+    return (rec.get("world_id", rec.get("world")), rec.get("world"), rec.get(WORLD_HASH), rec.get("world_seed"),
+            rec.get("difficulty"), rec.get("seed"))
+
+
+def _stored_world_hashes(folder: Path) -> dict[str, Any] | None:
+    """The world files' SHA-256 by path that the sweep in ``folder`` stored (``sweep.json``), or None."""
+    from navstack.sweep import SWEEP_NAME, SweepError, read_sweep_file
+
+    try:
+        hashes = read_sweep_file(folder / SWEEP_NAME).get("world_files")
+    except SweepError:
+        return None
+    return hashes if isinstance(hashes, dict) else None
+
+
+def _with_world_hashes(records: Sequence[Mapping[str, Any]], hashes: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """Copies of ``records``, each with :data:`WORLD_HASH`: its ``world_file``'s stored hash (None: none)."""
+    return [{**r, WORLD_HASH: hashes.get(r["world_file"]) if isinstance(r.get("world_file"), str) else None}
+            for r in records]
 
 
 def compare_rows(recs_a: Sequence[Mapping[str, Any]], recs_b: Sequence[Mapping[str, Any]], method_a: Method,
@@ -248,7 +273,8 @@ def render_markdown(rows: Sequence[Row], dir_a: str, dir_b: str, records_a: Sequ
              f"- B: `{dir_b}`, {len(records_b)} trials ({_identities(records_b)}){_errors(records_b)}", "",
              *(line for note in notes for line in (note, "")),
              "Difference = success rate of B minus A, with a 95 % confidence interval and a two-sided p-value. "
-             "Paired rows (both sweeps ran the same worlds with the same seeds): Newcombe's interval for paired "
+             "Paired rows (both sweeps ran the same worlds, by id, name and, where both sweeps store them, world "
+             "file contents, with the same seeds): Newcombe's interval for paired "
              "data and McNemar's exact test; `A only` / `B only` count the trials only A / only B succeeded "
              "in. Unpaired rows: Newcombe's hybrid score interval and Fisher's exact test.", ""]
     header = ["method", "family", "A", "B", "rate A", "rate B", "B - A", "95 % CI", "p", "test", "A only",
@@ -353,6 +379,9 @@ def run_compare(dir_a: str | Path, dir_b: str | Path, out: str | Path | None = N
         recs.append(loaded.records)
         notes += sweep_notes(len(loaded.records), loaded.planned, loaded.truncated_tail, name,
                              f"{name}'s results file")
+    hashes = [_stored_world_hashes(Path(d)) for d in (dir_a, dir_b)]
+    if hashes[0] is not None and hashes[1] is not None:
+        recs = [_with_world_hashes(r, h) for r, h in zip(recs, hashes, strict=True)]
     rows = compare(*recs)
     if not rows:
         raise ReportError(f"{dir_a} and {dir_b} have no controller/planner in common "

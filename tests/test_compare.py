@@ -404,3 +404,46 @@ def test_the_plot_of_very_many_families_draws_the_pooled_row_and_at_most_plot_ro
     titles.clear()
     compare.write_plot(rows[-3:], tmp_path / "few.png")
     assert titles == []
+
+
+def outcome_runner(world, *, controller, planner, seed, out_dir=None):
+    """A sweep's runner that runs nothing: the world file says whether its trial succeeds."""
+    data = json.loads(Path(world).read_text())
+    ok = data["extra"]["ok"]
+    return {"world": data["name"], "seed": seed, "controller": controller, "planner": planner, "success": ok,
+            "reason": "reached" if ok else "collision", "goals_reached": int(ok), "sim_time": 1.0, "steps": 1,
+            "wall_time": 0.0, "metrics": {}}
+
+
+def _world_folder(folder: Path, names: list[str], ok: list[bool]) -> Path:
+    folder.mkdir(parents=True)
+    for i, (name, good) in enumerate(zip(names, ok, strict=True)):
+        doc = {"format": "navstack-world/1", "name": name, "family": "truss", "extra": {"ok": good}}
+        (folder / f"w{i}.json").write_text(json.dumps(doc))
+    return folder
+
+
+def test_two_folders_of_other_worlds_under_the_same_file_names_are_not_paired(tmp_path):
+    """An audit (session 33): two sweeps of folders holding 'w0.json'... with other worlds in them were paired
+    (the world id is the file's stem, and the seed is derived from it) and tested with McNemar's test.  The
+    world's name, and the world file's SHA-256 that each sweep stores, are part of what makes a trial the same."""
+    from navstack.sweep import SweepConfig, build_specs, run_sweep
+
+    ok = [i % 2 == 0 for i in range(6)]
+    names = [f"w{i}" for i in range(6)]
+    cases = {"same worlds": (names, ok, True),
+             "other names": ([f"other{i}" for i in range(6)], [not x for x in ok], False),
+             "one edited": (names, [not x for x in ok[:3]] + [x for x in ok[3:]], False)}
+    base = _world_folder(tmp_path / "base", names, ok)
+    dir_a = tmp_path / "A"
+    run_sweep(build_specs(SweepConfig(worlds_dir=str(base))), dir_a, jobs=1, runner=outcome_runner, progress=False)
+    for case, (names_b, ok_b, paired) in cases.items():
+        folder = _world_folder(tmp_path / case / "worlds", names_b, ok_b)
+        dir_b = tmp_path / case / "B"
+        run_sweep(build_specs(SweepConfig(worlds_dir=str(folder))), dir_b, jobs=1, runner=outcome_runner,
+                  progress=False)
+        text = compare.run_compare(dir_a, dir_b)
+        assert ("| McNemar exact |" in text, "| Fisher exact |" in text) == (paired, not paired), case
+        if case == "one edited":  # without the stored hashes the names alone pair them
+            (dir_b / "sweep.json").unlink()
+            assert "| McNemar exact |" in compare.run_compare(dir_a, dir_b)
