@@ -43,6 +43,7 @@ from navstack.report import (
     load_results,
     md_cell,
     method_label,
+    plain,
     sweep_notes,
 )
 
@@ -357,7 +358,7 @@ def write_plot(rows: Sequence[Row], path: Path) -> Path:
             err = np.array([[rows[i].diff - rows[i].ci_low, rows[i].ci_high - rows[i].diff] for i in idx]).T
             ax.errorbar(d, y[idx], xerr=err, fmt=marker, capsize=3, label=label)
     ax.axvline(0.0, color="grey", lw=0.8, ls="--")
-    ax.set_yticks(y, [f"{r.label} | {r.family}" for r in rows])
+    ax.set_yticks(y, [plain(f"{r.label} | {r.family}") for r in rows])
     ax.set_xlim(-1.05, 1.05)
     ax.set_xlabel("success rate B - A (95 % CI)")
     ax.legend(fontsize="small")

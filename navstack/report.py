@@ -667,6 +667,12 @@ MAX_FIGURE_INCHES = 40.0
 """The largest width or height of a plot [in] (so many methods cannot make a figure too large to draw)."""
 
 
+def plain(text: str) -> str:
+    """``text`` as matplotlib draws it literally: each ``$`` escaped, so a family or planner name is never read
+    as mathtext (an audit: the family ``price $\\le$ 5`` stopped the report with matplotlib's parse error)."""
+    return text.replace("$", r"\$")
+
+
 def _figure(width: float = 7.0, height: float = 4.0) -> Any:
     from matplotlib.figure import Figure
 
@@ -683,7 +689,7 @@ def _left_out(families: Sequence[str]) -> str | None:
 def write_plots(s: Summary, folder: Path) -> list[Path]:
     """Write the PNG plots of ``s`` into ``folder``; returns their paths."""
     folder.mkdir(parents=True, exist_ok=True)
-    labels = [method_label(m) for m in s.methods]
+    labels = [plain(method_label(m)) for m in s.methods]
     paths = [_plot_success_rate(s, labels, folder / "success_rate.png")]
     by_difficulty = _plot_success_vs_difficulty(s, labels, folder / "success_vs_difficulty.png")
     if by_difficulty is not None:
@@ -710,7 +716,7 @@ def _plot_success_rate(s: Summary, labels: Sequence[str], path: Path) -> Path:
         y = np.array([r.rate if r else np.nan for r in rates])
         err = np.array([[r.rate - r.ci_low, r.ci_high - r.rate] if r else [0, 0] for r in rates]).T
         ax.bar(x, y, width, yerr=err, capsize=3, label=labels[j])
-    ax.set_xticks(np.arange(len(groups)), groups)
+    ax.set_xticks(np.arange(len(groups)), [plain(g) for g in groups])
     ax.set_ylim(0, 1.05)
     ax.set_ylabel("success rate (95 % Wilson CI)")
     ax.legend(fontsize="small")
@@ -743,7 +749,7 @@ def _plot_success_vs_difficulty(s: Summary, labels: Sequence[str], path: Path) -
             y = np.array([r.rate for _, r in pts])
             err = np.array([[r.rate - r.ci_low, r.ci_high - r.rate] for _, r in pts]).T
             ax.errorbar(x + (j - (k - 1) / 2) * 0.005, y, yerr=err, marker="o", capsize=3, label=labels[j])
-        ax.set_title(fam)
+        ax.set_title(plain(fam))
         ax.set_xlabel("difficulty")
         ax.set_ylim(-0.02, 1.05)
     axes[0].set_ylabel("success rate")

@@ -30,7 +30,8 @@ Outputs in ``DIR`` (only this process, the driver, writes them; workers return d
     * ``workers.log``: the local worker processes' stdout/stderr (PyBullet banners, prints), kept off the
       terminal (Ray keeps its workers' output in its own logs).
     * ``sweep.lock``: held (``flock``) while a sweep runs, so a second sweep on the same ``DIR`` is refused.
-    * ``trials/<trial_id>/`` (only with ``keep_trajectories``): each trial's ``result.json`` and trajectory.
+    * ``trials/<trial_id>/`` (only with ``keep_trajectories``): each trial's ``result.json`` and trajectory (a
+      ``trial_id`` over 200 bytes is cut and ends in a hash: :func:`trial_folder`).
       With ``animate_failures`` the folders of the trials that failed (not ``error``) are kept, with an
       ``animation.mp4`` made by the driver (:func:`navstack.animate.animate_run`), and their results line gets
       ``animation`` (the file, relative to ``DIR``), which the report links.
@@ -936,12 +937,25 @@ class _Run:
             if old_term is not None:
                 signal.signal(signal.SIGTERM, old_term)
 
+    def _keep_files(self, spec: TrialSpec, files: dict[str, bytes]) -> bool:
+        """Write a trial's output files into its folder; whether any were written (a file that cannot be written
+        is said on stderr: it must never cost the sweep the trial's results line)."""
+        try:
+            for rel, data in files.items():
+                path = trial_folder(self.out, spec.trial_id) / rel
+                path.parent.mkdir(parents=True, exist_ok=True)
+                path.write_bytes(data)
+        except OSError as exc:
+            print(f"navstack trials: could not keep the files of {spec.trial_id}: {exc}", file=sys.stderr)
+            return False
+        return bool(files)
+
     def _animate(self, spec: TrialSpec) -> str | None:
         """Animate a failed trial's kept folder; the file relative to ``out`` (None if it could not be made)."""
         from navstack.animate import animate_run
 
         try:
-            return animate_run(self.out / "trials" / spec.trial_id).relative_to(self.out).as_posix()
+            return animate_run(trial_folder(self.out, spec.trial_id)).relative_to(self.out).as_posix()
         except Exception as exc:  # noqa: BLE001 - a picture must never cost the sweep its results line
             print(f"navstack trials: could not animate {spec.trial_id}: {exc}", file=sys.stderr)
             return None
@@ -972,12 +986,10 @@ class _Run:
             except TypeError as exc:
                 rec = _error_record(spec, str(exc), reply["wall_time"], world_text=self._world_text(spec, reply))
         failed = rec.get("success") is not True and rec.get("reason") != "error"
+        kept = False
         if self.keep_trajectories or (self.animate_failures and failed):
-            for rel, data in (reply.get("files") or {}).items():
-                path = self.out / "trials" / spec.trial_id / rel
-                path.parent.mkdir(parents=True, exist_ok=True)
-                path.write_bytes(data)
-        if self.animate_failures and failed and reply.get("files"):
+            kept = self._keep_files(spec, reply.get("files") or {})
+        if self.animate_failures and failed and kept:
             rec["animation"] = self._animate(spec)
         s = self.summary
         with _signals_deferred():  # the line and its count together: an interrupt comes before or after both
@@ -994,6 +1006,22 @@ class _Run:
             self.bar.set_postfix_str(f"ok {self.successes}/{s.recorded}"
                                      + (f", errors {s.errors}" if s.errors else ""), refresh=False)
             self.bar.update(1)
+
+
+FOLDER_BYTES = 200
+"""The longest kept trial folder name [bytes]; a longer ``trial_id`` (a world file of a long name) is cut and
+ends in 16 hex digits of its SHA-256 (file systems allow 255 bytes a name)."""
+
+
+def trial_folder(out: Path, trial_id: str) -> Path:
+    """The folder where a kept trial's files go: ``out/trials/<trial_id>``, its name cut as :data:`FOLDER_BYTES`
+    says when the id is too long for one."""
+    raw = os.fsencode(trial_id)
+    if len(raw) <= FOLDER_BYTES:
+        return out / "trials" / trial_id
+    digest = hashlib.sha256(raw).hexdigest()[:16]
+    head = os.fsdecode(raw[:FOLDER_BYTES - 18].decode("utf-8", errors="ignore").encode("utf-8", errors="ignore"))
+    return out / "trials" / f"{head}__{digest}"
 
 
 def _on_sigterm(signum: int, frame: Any) -> None:

@@ -621,3 +621,21 @@ def test_a_results_file_of_very_many_families_is_plotted_in_bounded_figures(tmp_
     left_out = f"the first {report.PLOT_FAMILIES} of 300 families (the tables list every one)"
     assert titles.count(left_out) == 2  # the success-rate bars and the curves per difficulty
     assert (tmp_path / "plots" / "success_vs_difficulty.png").exists()
+
+
+def test_names_with_dollar_signs_are_drawn_literally_not_as_mathtext(tmp_path):
+    """An audit (session 33): a world family 'price $\\le$ $\\euro 5$' (a legal name) stopped `report` and
+    `compare --out` with matplotlib's mathtext parse error and no report.md; '$\\Delta p$' was silently typeset."""
+    from navstack import compare
+
+    bad, typeset = r"price $\le$ $\euro 5$", r"$\Delta p$"
+    recs = [{"trial_id": f"t{i}", "controller": "slither", "planner": "f$i$eld" if i % 2 else "field",
+             "success": i % 3 == 0, "reason": "reached" if i % 3 == 0 else "timeout", "sim_time": 5.0,
+             "family": (bad, typeset)[i % 2], "difficulty": float(i % 2), "seed": i, "world": f"w{i}",
+             "metrics": {"min_clearance": 0.01}} for i in range(8)]
+    write_jsonl(tmp_path / "results.jsonl", recs)
+    assert bad in write_report(tmp_path).read_text()
+    assert (tmp_path / "plots" / "success_rate.png").stat().st_size > 0
+    assert report.plain(bad) == r"price \$\le\$ \$\euro 5\$"
+    text = compare.run_compare(tmp_path, tmp_path, out=tmp_path / "cmp")
+    assert bad in text and (tmp_path / "cmp" / "compare.png").stat().st_size > 0

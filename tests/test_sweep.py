@@ -455,6 +455,34 @@ def test_keep_trajectories_files_come_back_to_the_driver(tmp_path):
     assert not (tmp_path / "plain" / "trials").exists()
 
 
+def test_a_world_file_of_a_long_name_keeps_its_files_in_a_shortened_folder(tmp_path, monkeypatch):
+    """An audit (session 33): a 250-byte world file name made 'trials/<trial_id>' too long a name; the trial ran,
+    then the driver stopped with 'File name too long' before its line, and every rerun did the same, so the sweep
+    could never finish.  The folder's name is cut (ending in a hash of the id), and a file that cannot be kept
+    is said on stderr and costs no results line."""
+    folder = write_worlds(tmp_path / "in", 2)
+    long = folder / ("L" * 245 + ".json")
+    (folder / "w00.json").rename(long)
+    specs = build_specs(SweepConfig(worlds_dir=str(folder)))
+    run_sweep(specs, tmp_path / "out", jobs=1, runner=fake_runner, progress=False, keep_trajectories=True)
+    lines = lines_of(tmp_path / "out" / "results.jsonl")
+    assert len(lines) == 2 and {r["trial_id"] for r in lines} == {s.trial_id for s in specs}
+    for r in lines:
+        trial = sweep.trial_folder(tmp_path / "out", r["trial_id"])
+        assert json.loads((trial / "result.json").read_text())["world"] == r["world"]
+        assert len(os.fsencode(trial.name)) <= sweep.FOLDER_BYTES
+    long_id = next(s.trial_id for s in specs if s.trial_id.startswith("LLL"))
+    assert sweep.trial_folder(tmp_path, long_id).name.startswith("L" * 150)
+    assert sweep.trial_folder(tmp_path, long_id) != sweep.trial_folder(tmp_path, long_id.replace("L", "M", 1))
+
+    def unwritable(self, data):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(Path, "write_bytes", unwritable)
+    run_sweep(specs, tmp_path / "full", jobs=1, runner=fake_runner, progress=False, keep_trajectories=True)
+    assert len(lines_of(tmp_path / "full" / "results.jsonl")) == 2
+
+
 def test_animate_failures_keeps_and_animates_only_the_failed_trials(tmp_path, monkeypatch):
     """The driver keeps the folders of failed trials, animates them there and names the file in the line;
     successful trials leave nothing behind; the report links the animations."""
