@@ -329,6 +329,7 @@ def build_specs(config: SweepConfig) -> list[TrialSpec]:
         files = sorted(p for p in folder.glob("*.json") if p.is_file() or (p.is_symlink() and not p.exists()))
         if not files:
             raise SweepError(f"--worlds: no *.json world files in {folder}")
+        _check_utf8_names(files)
         _check_total(config, len(files))
         infos = [(p, *_world_file_info(p)) for p in files]
         for rep in range(config.count):
@@ -343,6 +344,17 @@ def build_specs(config: SweepConfig) -> list[TrialSpec]:
                             index=rep, family=fam, difficulty=diff, world_seed=None, retract=retract))
     _check_unique(specs)
     return specs
+
+
+def _check_utf8_names(files: Sequence[Path]) -> None:
+    """Refuse world file paths that are not UTF-8: their ``trial_id`` and ``world_file`` would hold lone
+    surrogates, which strict JSON readers of results.jsonl refuse (an audit, session 33)."""
+    for path in files:
+        try:
+            str(path).encode("utf-8")
+        except UnicodeEncodeError:
+            raise SweepError(f"--worlds: {os.fsencode(path)!r}: the path is not valid UTF-8, so its trials could not "
+                             "be named in results.jsonl; rename the file (or folder)") from None
 
 
 def _check_total(config: SweepConfig, worlds_per_count: int) -> None:

@@ -1118,3 +1118,15 @@ def test_resume_refuses_a_line_of_another_sweep_configuration(tmp_path):
     assert summary.skipped == 1 and summary.complete
     assert without_wall_time(lines_of(own / "results.jsonl")) == \
         without_wall_time(lines_of(tmp_path / "s0" / "results.jsonl"))
+
+
+def test_a_world_file_name_that_is_not_utf8_is_refused_naming_it(tmp_path):
+    """An audit (session 33): a file named b'w\\xff\\xfe.json' gave lines whose trial_id held lone surrogates
+    (jq showed U+FFFD; strict JSON readers refuse them)."""
+    folder = write_worlds(tmp_path / "in", 1)
+    try:
+        (folder / os.fsdecode(b"w\xff\xfe.json")).write_text((folder / "w00.json").read_text())
+    except (OSError, UnicodeError):
+        pytest.skip("this file system refuses names that are not UTF-8")
+    with pytest.raises(SweepError, match=r"b'.*w\\xff\\xfe\.json': the path is not valid UTF-8"):
+        build_specs(SweepConfig(worlds_dir=str(folder)))
