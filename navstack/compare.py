@@ -163,17 +163,6 @@ def trial_key(rec: Mapping[str, Any]) -> tuple[Any, ...]:
             rec.get("difficulty"), rec.get("seed"))
 
 
-def _stored_world_hashes(folder: Path) -> dict[str, Any] | None:
-    """The world files' SHA-256 by path that the sweep in ``folder`` stored (``sweep.json``), or None."""
-    from navstack.sweep import SWEEP_NAME, SweepError, read_sweep_file
-
-    try:
-        hashes = read_sweep_file(folder / SWEEP_NAME).get("world_files")
-    except SweepError:
-        return None
-    return hashes if isinstance(hashes, dict) else None
-
-
 def _with_world_hashes(records: Sequence[Mapping[str, Any]], hashes: Mapping[str, Any]) -> list[dict[str, Any]]:
     """Copies of ``records``, each with :data:`WORLD_HASH`: its ``world_file``'s stored hash (None: none)."""
     return [{**r, WORLD_HASH: hashes.get(r["world_file"]) if isinstance(r.get("world_file"), str) else None}
@@ -372,15 +361,15 @@ def run_compare(dir_a: str | Path, dir_b: str | Path, out: str | Path | None = N
     """Compare the sweeps in ``dir_a`` and ``dir_b``; returns the Markdown (also written to ``out`` if given).
 
     Raises :class:`navstack.report.ReportError` for unusable results or nothing to compare."""
-    recs, notes = [], []
+    recs, notes, hashes = [], [], []
     for name, d in (("A", dir_a), ("B", dir_b)):
         if not Path(d).is_dir():
             raise ReportError(f"{d}: not a directory")
         loaded = load_results(Path(d) / "results.jsonl")
         recs.append(loaded.records)
+        hashes.append(loaded.world_files)
         notes += sweep_notes(len(loaded.records), loaded.planned, loaded.truncated_tail, name,
                              f"{name}'s results file")
-    hashes = [_stored_world_hashes(Path(d)) for d in (dir_a, dir_b)]
     if hashes[0] is not None and hashes[1] is not None:
         recs = [_with_world_hashes(r, h) for r, h in zip(recs, hashes, strict=True)]
     rows = compare(*recs)

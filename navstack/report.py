@@ -407,14 +407,16 @@ def summarize(records: Iterable[Mapping[str, Any]], *, checked: bool = False) ->
 
 @dataclass(frozen=True)
 class Loaded:
-    """Records of a results file, their 1-based line numbers, whether a cut-off last line was ignored, and how many
-    trials the ``sweep.json`` beside it lists (None: no readable one)."""
+    """Records of a results file, their 1-based line numbers, whether a cut-off last line was ignored, and from the
+    ``sweep.json`` beside it how many trials it lists and its world files' SHA-256 by path (None: no readable
+    one, or no hashes stored)."""
 
     path: Path
     records: list[dict[str, Any]]
     line_numbers: list[int]
     truncated_tail: bool
     planned: int | None = None
+    world_files: dict[str, Any] | None = None
 
 
 def load_results(path: str | Path) -> Loaded:
@@ -436,25 +438,28 @@ def load_results(path: str | Path) -> Loaded:
         raise ReportError(f"{path}: no trial results in the file ({why})")
     lines = rf.line_numbers
     _check_records(rf.records, lambda i: f"{path}, line {lines[i]}", lambda i: f"line {lines[i]}")
-    planned = _check_against_sweep(path, rf.records, lines)
-    return Loaded(path, rf.records, rf.line_numbers, rf.truncated_tail, planned)
+    planned, world_files = _check_against_sweep(path, rf.records, lines)
+    return Loaded(path, rf.records, rf.line_numbers, rf.truncated_tail, planned, world_files)
 
 
-def _check_against_sweep(path: Path, records: Sequence[Mapping[str, Any]], lines: Sequence[int]) -> int | None:
+def _check_against_sweep(path: Path, records: Sequence[Mapping[str, Any]],
+                         lines: Sequence[int]) -> tuple[int | None, dict[str, Any] | None]:
     """When ``results.jsonl`` lies beside the ``sweep.json`` of the sweep that wrote it, refuse a line that is not
     one of its trials: a ``trial_id`` it does not list, or one whose seed, world or method is another's
     (:data:`navstack.sweep.SPEC_KEYS`; a line of the same worlds run with another ``--seed`` has the same
     ``trial_id``). A ``sweep.json`` that cannot be read as one is left alone: the lines are reported as they are.
-    Returns how many trials the sweep lists (None without a readable ``sweep.json``)."""
+    Returns how many trials the sweep lists and the world files' hashes it stored (each None without a readable
+    ``sweep.json``; the hashes None also when it stored none)."""
     from navstack.sweep import SWEEP_NAME, SweepError, TrialSpec, read_sweep_file, spec_mismatch
 
     sweep_path = path.parent / SWEEP_NAME
     if not sweep_path.exists():
-        return None
+        return None, None
     try:
-        specs = {spec.trial_id: spec for spec in map(TrialSpec.from_dict, read_sweep_file(sweep_path)["trials"])}
+        stored = read_sweep_file(sweep_path)
+        specs = {spec.trial_id: spec for spec in map(TrialSpec.from_dict, stored["trials"])}
     except (SweepError, KeyError, TypeError, AttributeError, ValueError):
-        return None
+        return None, None
     for rec, line in zip(records, lines, strict=True):
         tid = rec.get("trial_id")
         if tid is None:
@@ -465,7 +470,8 @@ def _check_against_sweep(path: Path, records: Sequence[Mapping[str, Any]], lines
             raise ReportError(f"{path}, line {line}: not a line of the sweep in {sweep_path}: {why}"
                               + (f" {sweep_path}" if spec is None else "")
                               + " (a line of another sweep configuration, or edited)")
-    return len(specs)
+    hashes = stored.get("world_files")
+    return len(specs), (hashes if isinstance(hashes, dict) else None)
 
 
 # --------------------------------------------------------------------------------------------------------

@@ -266,7 +266,7 @@ def _world_file_info(path: Path) -> tuple[str | None, float | None, bool]:
     (:data:`MAX_DIFFICULTY`), read as absent; a non-finite one (NaN, 1e400, a 400-digit integer) also makes
     the trial an ``error`` line, as the world check names the field."""
     try:
-        data = _json_object(path.read_text(encoding="utf-8-sig"))
+        data = _json_object(path.read_text(encoding="utf-8"))
     except (OSError, ValueError):  # ValueError: bad UTF-8
         return None, None, False
     if data is None:
@@ -1032,7 +1032,7 @@ def trial_folder(out: Path, trial_id: str) -> Path:
     if len(raw) <= FOLDER_BYTES:
         return out / "trials" / trial_id
     digest = hashlib.sha256(raw).hexdigest()[:16]
-    head = os.fsdecode(raw[:FOLDER_BYTES - 18].decode("utf-8", errors="ignore").encode("utf-8", errors="ignore"))
+    head = raw[:FOLDER_BYTES - 18].decode("utf-8", errors="ignore")  # a character cut in two is dropped
     return out / "trials" / f"{head}__{digest}"
 
 
