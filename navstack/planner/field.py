@@ -38,6 +38,7 @@ from navstack.path import PathMemory
 from navstack.planner.escape import EscapeConfig, Wait
 from navstack.planner.map import MapConfig, SensedMap
 from navstack.planner.opening import OpeningConfig, far_rays, find_opening
+from navstack.planner.own_arm import OwnArmConfig, turns_into_arm
 from navstack.planner.potential import NavigationFunction, Repulsion, navigation_function
 from navstack.planner.proximity import sets_closer_than
 from navstack.planner.recovery import Recovery
@@ -93,6 +94,8 @@ class FieldPlannerConfig:
             ``Repulsion.margin``.  5 mm, not less: the range noise is 4 mm (1 sigma), and with 3 mm a review
             world's 2 mm plate seen edge-on (its edge never sensed) was hit.  None, or not below
             ``Repulsion.margin``: no such search (the planner backs out or stalls instead).
+        own_arm: how near a plan may carry the serpentine to the robot's own arm (a plan that turns back into it
+            is refused: :mod:`navstack.planner.own_arm`).
     """
 
     map: MapConfig = field(default_factory=MapConfig)
@@ -101,6 +104,7 @@ class FieldPlannerConfig:
     steering: SteeringConfig = field(default_factory=SteeringConfig)
     escape: EscapeConfig = field(default_factory=EscapeConfig)
     opening: OpeningConfig = field(default_factory=OpeningConfig)
+    own_arm: OwnArmConfig = field(default_factory=OwnArmConfig)
     replan_period: float = 0.5
     horizon: float = 0.6
     ray_start: float = 0.03
@@ -114,7 +118,8 @@ class FieldPlannerConfig:
 
     def __post_init__(self) -> None:
         for name, cls in (("map", MapConfig), ("repulsion", Repulsion), ("search", SearchConfig),
-                          ("steering", SteeringConfig), ("escape", EscapeConfig), ("opening", OpeningConfig)):
+                          ("steering", SteeringConfig), ("escape", EscapeConfig), ("opening", OpeningConfig),
+                          ("own_arm", OwnArmConfig)):
             instance(self, name, cls)
         positive(self, "replan_period", "horizon", "ray_start", "urgent_margin", "nav_period", "path_spacing")
         non_negative(self, "tight_margin", none_ok=True)
@@ -218,6 +223,8 @@ class FieldPlanner(Recovery):
         self.tight_plans = 0  # plans found only with FieldPlannerConfig.tight_margin
         self._rays: tuple | None = None  # the last reading's rays as fused (origins, directions, ranges, informative)
         self.opening_plans = 0  # plans kept through a seen opening
+        self.arm_refusals = 0  # plans refused: they would carry the serpentine into the arm (_clear_of_arm)
+        self.goal_alone_plans = 0  # plans to the next goal alone, the one after it behind (_goal_alone)
         self.follower = PlanFollower(self._plan_from(self.start, h / np.linalg.norm(h), 0), cfg.steering)
         self.goal_index = 0
         self.mode = "plan"
@@ -265,8 +272,9 @@ class FieldPlanner(Recovery):
         history = self._history(end, 7.5 * cfg.search.link_length)
 
         def attempt(config: SearchConfig, fresh: bool = False, repulsion: Repulsion = cfg.repulsion) -> Plan:
-            return search(self.map, p, h, self.goals, self.tolerances, k, config, repulsion, history=history,
-                          nav=self._navigation(p, k, fresh), arm=self.arm)
+            return self._clear_of_arm(search(self.map, p, h, self.goals, self.tolerances, k, config, repulsion,
+                                             history=history, nav=self._navigation(p, k, fresh), arm=self.arm),
+                                      history)
 
         plan = attempt(scfg)
         if plan.status != REACHED and self._nav is not None and self._nav[1] != self.map.version:
@@ -299,7 +307,24 @@ class FieldPlanner(Recovery):
             if tight.status == REACHED:
                 self.tight_plans += 1
                 return tight
-        return plan
+        return self._goal_alone(p, h, k, scfg, history) or plan
+
+    def _goal_alone(self, p: NDArray[np.float64], h: NDArray[np.float64], k: int, config: SearchConfig,
+                    history: NDArray[np.float64]) -> Plan | None:
+        """A plan to goal ``k`` alone when none reaches every goal from ``k`` on and goal ``k + 1`` lies behind
+        where that plan ends (behind the plane through its end, normal to its heading): the tip, moving forward
+        only, would have to turn round (through its own body, when the next goal lies on the way in). Once at
+        goal ``k`` the planner finds no way on forward and backs along its own path (an escape) to where the next
+        goal is reached or planned to forward. None otherwise."""
+        if k + 1 >= len(self.goals):
+            return None
+        alone = self._clear_of_arm(search(self.map, p, h, self.goals[: k + 1], self.tolerances[: k + 1], k, config,
+                                          self.config.repulsion, history=history, nav=self._navigation(p, k, False),
+                                          arm=self.arm), history)
+        if alone.status != REACHED or float(np.dot(self.goals[k + 1] - alone.points[-1], alone.tangents[-1])) >= 0.0:
+            return None
+        self.goal_alone_plans += 1
+        return alone
 
     def _prefer_opening(self, p: NDArray[np.float64], h: NDArray[np.float64], k: int, plan: Plan,
                         config: SearchConfig, history: NDArray[np.float64]) -> Plan:
@@ -323,12 +348,22 @@ class FieldPlanner(Recovery):
         tolerances = np.concatenate([[ocfg.via_tolerance], self.tolerances[k:]])
         if plan.status == REACHED:  # only a preference: a small budget
             config = replace(config, max_expansions=min(config.max_expansions, ocfg.budget))
-        via = search(self.map, p, h, goals, tolerances, 0, config, self.config.repulsion, history=history,
-                     arm=self.arm)
+        via = self._clear_of_arm(search(self.map, p, h, goals, tolerances, 0, config, self.config.repulsion,
+                                        history=history, arm=self.arm), history)
         if via.status != REACHED or (plan.status == REACHED and via.cost > ocfg.cost_ratio * plan.cost):
             return plan
         self.opening_plans += 1
         return _without_via(via, k, self.goals)
+
+    def _clear_of_arm(self, plan: Plan, history: NDArray[np.float64]) -> Plan:
+        """``plan``, or none (``NO_PATH``) if following it would carry the serpentine into the robot's own arm
+        (:func:`~navstack.planner.own_arm.turns_into_arm`: a loop round to a goal behind the one before it)."""
+        if plan.status == NO_PATH or self.arm is None or not turns_into_arm(history, plan.points, self.arm,
+                                                                            self.config.own_arm):
+            return plan
+        self.arm_refusals += 1
+        return Plan(plan.points[:1].copy(), plan.tangents[:1].copy(), np.zeros(1), plan.goal_index[:1].copy(),
+                    NO_PATH, float("inf"), plan.expansions, repulsion=plan.repulsion)
 
     def _history(self, end: float, length: float, spacing: float = 0.02) -> NDArray[np.float64]:
         """The commanded path's ``length`` [m] up to arc length ``end``, every ``spacing`` [m], oldest first."""
@@ -414,6 +449,8 @@ class FieldPlanner(Recovery):
         plan = f.plan
         if plan.status != REACHED and self.time - self._planned_at >= cfg.replan_period:
             return True
+        if f.remaining <= 0.0 and self.command_goal < len(self.goals):
+            return True  # at the end of a plan to a goal alone (_goal_alone): on to the next
         new = self.map.new_points
         if len(new):  # a new point near the plan ahead (every fourth sample over the horizon)
             i, j = np.searchsorted(plan.arc, (f.s, f.s + cfg.horizon))
