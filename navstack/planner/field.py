@@ -224,7 +224,7 @@ class FieldPlanner(Recovery):
         self._rays: tuple | None = None  # the last reading's rays as fused (origins, directions, ranges, informative)
         self.opening_plans = 0  # plans kept through a seen opening
         self.arm_refusals = 0  # plans refused: they would carry the serpentine into the arm (_clear_of_arm)
-        self.goal_alone_plans = 0  # plans to the next goal alone, the one after it behind (_goal_alone)
+        self.turn_back_plans = 0  # plans up to a goal after which the tour turns back (_to_turn_back)
         self.follower = PlanFollower(self._plan_from(self.start, h / np.linalg.norm(h), 0), cfg.steering)
         self.goal_index = 0
         self.mode = "plan"
@@ -282,9 +282,11 @@ class FieldPlanner(Recovery):
         if at is None and (budget is None or plan.status == REACHED):
             # (an improvement that found nothing changes nothing: the plan being followed still holds)
             plan = self._prefer_opening(p, h, k, plan, scfg, history)
-        if plan.status == REACHED or budget is not None or at is not None:
-            return plan  # (the tries below are for a full replan from where the robot is, not a branch point's:
+        if plan.status == REACHED or budget is not None:
+            return plan
+        if at is not None:  # (the tries below are for a full replan from where the robot is, not a branch point's:
             # each of an escape's up to 15 would search again, 2.5 s per escape on a baffle world)
+            return self._to_turn_back(p, h, k, scfg, history) or plan
         if scfg.goal_fraction < RELAXED_GOAL_FRACTION:
             # a goal at the edge of what the turning limit allows may be passed within its tolerance but
             # not within the search's smaller ball: one more try with the larger one
@@ -307,24 +309,33 @@ class FieldPlanner(Recovery):
             if tight.status == REACHED:
                 self.tight_plans += 1
                 return tight
-        return self._goal_alone(p, h, k, scfg, history) or plan
+        return self._to_turn_back(p, h, k, scfg, history) or plan
 
-    def _goal_alone(self, p: NDArray[np.float64], h: NDArray[np.float64], k: int, config: SearchConfig,
-                    history: NDArray[np.float64]) -> Plan | None:
-        """A plan to goal ``k`` alone when none reaches every goal from ``k`` on and goal ``k + 1`` lies behind
-        where that plan ends (behind the plane through its end, normal to its heading): the tip, moving forward
-        only, would have to turn round (through its own body, when the next goal lies on the way in). Once at
-        goal ``k`` the planner finds no way on forward and backs along its own path (an escape) to where the next
-        goal is reached or planned to forward. None otherwise."""
-        if k + 1 >= len(self.goals):
+    def _to_turn_back(self, p: NDArray[np.float64], h: NDArray[np.float64], k: int, config: SearchConfig,
+                      history: NDArray[np.float64]) -> Plan | None:
+        """When no plan reaches every goal from ``k`` on: a plan through the goals from ``k`` up to the first goal
+        ``j`` after which the tour turns back (goal ``j + 1`` lies back towards the goal before ``j``, or towards
+        the start ``p``), if goal ``j + 1`` lies behind where that plan ends (behind the plane through its end,
+        normal to its heading).  The tip moves forward only: the whole tour would need a loop round, through the
+        robot's own body when the next goal lies on the way in.  Once at goal ``j`` the planner finds no way on
+        forward and backs along its own path (an escape) to where the next goals are reached, or planned to
+        forward.  None otherwise."""
+        g = self.goals
+        prev, j = p, None
+        for i in range(k, len(g) - 1):
+            if float(np.dot(g[i + 1] - g[i], g[i] - prev)) < 0.0:
+                j = i
+                break
+            prev = g[i]
+        if j is None:
             return None
-        alone = self._clear_of_arm(search(self.map, p, h, self.goals[: k + 1], self.tolerances[: k + 1], k, config,
-                                          self.config.repulsion, history=history, nav=self._navigation(p, k, False),
-                                          arm=self.arm), history)
-        if alone.status != REACHED or float(np.dot(self.goals[k + 1] - alone.points[-1], alone.tangents[-1])) >= 0.0:
+        plan = self._clear_of_arm(search(self.map, p, h, g[: j + 1], self.tolerances[: j + 1], k, config,
+                                         self.config.repulsion, history=history, nav=self._navigation(p, k, False),
+                                         arm=self.arm), history)
+        if plan.status != REACHED or float(np.dot(g[j + 1] - plan.points[-1], plan.tangents[-1])) >= 0.0:
             return None
-        self.goal_alone_plans += 1
-        return alone
+        self.turn_back_plans += 1
+        return plan
 
     def _prefer_opening(self, p: NDArray[np.float64], h: NDArray[np.float64], k: int, plan: Plan,
                         config: SearchConfig, history: NDArray[np.float64]) -> Plan:
@@ -450,7 +461,7 @@ class FieldPlanner(Recovery):
         if plan.status != REACHED and self.time - self._planned_at >= cfg.replan_period:
             return True
         if f.remaining <= 0.0 and self.command_goal < len(self.goals):
-            return True  # at the end of a plan to a goal alone (_goal_alone): on to the next
+            return True  # at the end of a plan up to where the tour turns back (_to_turn_back)
         new = self.map.new_points
         if len(new):  # a new point near the plan ahead (every fourth sample over the horizon)
             i, j = np.searchsorted(plan.arc, (f.s, f.s + cfg.horizon))

@@ -1,0 +1,106 @@
+"""The robot's own arm on a planned path (navstack/planner/own_arm.py), and goals behind the one before them.
+
+The unit cases are closed-form: the serpentine along a straight line and one arm point beside it.  The trial
+cases check the robot against itself with PyBullet's own distances (getClosestPoints between its links, at every
+recorded control step): the robot's body has no self-collision, so nothing in a trial would tell.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pybullet
+import pytest
+from pybullet_utils.bullet_client import BulletClient
+
+import navstack
+from navstack.generate.base import TIP, robot_dict
+from navstack.planner.own_arm import OwnArmConfig, turns_into_arm
+from navstack.planner.search import ArmShape
+from navstack.sim.body import RobotBody
+from navstack.world import world_from_dict
+
+CFG = OwnArmConfig()
+REACH = 0.06 + CFG.body_radius + CFG.margin  # arm radius + serpentine radius + margin [m]
+
+
+def _line(x0: float, x1: float, spacing: float = 0.02) -> np.ndarray:
+    x = np.append(np.arange(x0, x1, spacing), x1)
+    return np.column_stack([x, np.zeros_like(x), np.zeros_like(x)])
+
+
+def _arm(point, flange=(-1.2, 0.0, 0.0)) -> ArmShape:
+    return ArmShape(np.array([point], dtype=float), np.array(flange, dtype=float), 0.06)
+
+
+HISTORY = _line(-1.5, 0.0)  # the tip came along +x; the flange (1.2 m back) is at x = -1.2
+PLAN = _line(0.0, 0.6)
+
+
+@pytest.mark.parametrize(("offset", "expected"), [(REACH - 0.002, True), (REACH + 0.002, False)])
+def test_an_arm_point_beside_the_body(offset, expected):
+    """An arm point 0.7 m ahead of the flange, ``offset`` to the side: it moves with the flange, so it stays
+    beside the body's middle; within the reach it is hit, just outside it is not."""
+    assert turns_into_arm(HISTORY, PLAN, _arm((-0.5, offset, 0.0))) is expected
+
+
+def test_the_body_next_to_the_flange_is_not_checked():
+    """The serpentine joins the arm at the flange: an arm point on the flange itself is no hit."""
+    assert not turns_into_arm(HISTORY, PLAN, _arm((-1.2, 0.0, 0.0)))
+    assert turns_into_arm(HISTORY, PLAN, _arm((-1.2 + CFG.skip + 0.02, 0.0, 0.0)))
+
+
+def test_an_arm_behind_the_flange_is_never_reached_going_forward():
+    arm = ArmShape(_line(-2.0, -1.26, 0.05), np.array([-1.2, 0.0, 0.0]), 0.06)
+    assert not turns_into_arm(HISTORY, PLAN, arm)
+    # a plan turning straight back along the way in runs into it
+    back = np.vstack([PLAN, _line(-0.9, 0.58)[::-1]])
+    assert turns_into_arm(HISTORY, back, arm)
+
+
+def test_config_is_checked():
+    with pytest.raises(ValueError, match="margin"):
+        OwnArmConfig(margin=0.0)
+    with pytest.raises(ValueError, match="links"):
+        OwnArmConfig(links=0)
+
+
+def _world(name: str, ahead: list[list[float]]) -> navstack.World:
+    goals = [{"position": [float(v) for v in TIP + np.array(a)], "tolerance": 0.02} for a in ahead]
+    return world_from_dict({"format": "navstack-world/1", "name": name, "robot": robot_dict(), "obstacles": [],
+                       "goals": goals, "time_limit": 45.0})
+
+
+def _self_distance(world: navstack.World, q: np.ndarray) -> float:
+    """The least distance [m] between the serpentine's links and the links at least four before them (the arm,
+    and the serpentine three joints back), over the recorded postures, by PyBullet's closest points."""
+    client = BulletClient(connection_mode=pybullet.DIRECT)
+    try:
+        body = RobotBody.build(client, navstack.jpl_serpentine(), world.robot.base.transform(), visuals=False)
+        worst = np.inf
+        for qk in q[::3]:
+            body.reset(qk)
+            client.performCollisionDetection()
+            for a in range(12, 21):
+                for b in range(a - 3):
+                    for p in client.getClosestPoints(body.body_id, body.body_id, 0.2, a, b):
+                        worst = min(worst, p[8])
+        return worst
+    finally:
+        client.disconnect()
+
+
+@pytest.mark.parametrize(("ahead", "min_goals"), [
+    ([[0.30, 0.0, 0.0], [0.15, 0.0, 0.0]], 2),  # the second goal on the way in: backed to
+    ([[0.35, 0.0, 0.0], [0.15, 0.0, 0.35]], 2),  # behind and above: backed out, then forward again
+    ([[0.3, 0.0, 0.0], [0.1, 0.0, 0.0], [0.45, 0.0, 0.1], [0.2, 0.0, 0.05]], 4),  # turning back twice
+])
+def test_a_goal_behind_the_one_before_is_reached_without_touching_the_arm(tmp_path, ahead, min_goals):
+    """Goals in an empty world, the next behind the one before (on main before session 34: stalled, no goal
+    reached, in the first two; a loop round to the second one, once the first was planned to alone, went 44 mm
+    into the arm)."""
+    world = _world("behind", ahead)
+    result = navstack.run_trial(world, planner="field", seed=0, out_dir=tmp_path)
+    assert result.success, (result.reason, result.goals_reached)
+    assert result.goals_reached == min_goals
+    q = np.load(tmp_path / "trajectory.npz")["q"]
+    assert _self_distance(world, q) > 0.0
