@@ -84,23 +84,18 @@ def turns_into_arm(history: ArrayLike, plan_points: ArrayLike, arm: ArmShape,
     pts, s = _resample(path, cfg.spacing)
     start = s[-1] - float(np.linalg.norm(np.diff(plan, axis=0), axis=1).sum())  # the plan's start, as arc length
     # where the flange goes while the plan is followed: from where it is now to the plan's end less the body
-    f_arc = s[(s >= start - cfg.body_length - 1e-9) & (s <= s[-1] - cfg.body_length)]
-    if not len(f_arc):
+    f = np.flatnonzero((s >= start - cfg.body_length - 1e-9) & (s <= s[-1] - cfg.body_length))
+    if not len(f):
         return False
-    shifts = pts[np.searchsorted(s, f_arc)] - arm.flange  # (F, 3) the arm's translation at each place
+    # every (flange place, path point) pair with the serpentine there then: between skip and its length ahead
+    i = np.minimum(f[:, None] + np.arange(int(np.ceil(cfg.body_length / cfg.spacing)) + 2)[None, :], len(s) - 1)
+    ahead = s[i] - s[f][:, None]
+    on = (ahead >= cfg.skip) & (ahead <= cfg.body_length) & (s[i] >= start - cfg.body_length + cfg.skip)
+    rel = pts[i[on]] - pts[np.broadcast_to(f[:, None], i.shape)[on]]  # the body point from the flange
+    arm_rel = arm.points - arm.flange  # the arm from the flange (it moves with it)
     reach = arm.radius + cfg.body_radius + cfg.margin
-    body = s >= start - cfg.body_length + cfg.skip
-    lo = np.min(arm.points, axis=0)
-    hi = np.max(arm.points, axis=0)
-    for shift, f in zip(shifts, f_arc, strict=True):
-        on = body & (s >= f + cfg.skip) & (s <= f + cfg.body_length)
-        if not on.any():
-            continue
-        q = pts[on] - shift  # the body in the arm's start frame
-        near = np.all((q >= lo - reach) & (q <= hi + reach), axis=1)
-        if not near.any():
-            continue
-        d = np.linalg.norm(q[near][:, None, :] - arm.points[None, :, :], axis=2)
-        if float(d.min()) < reach:
-            return True
-    return False
+    box = np.all((rel >= arm_rel.min(axis=0) - reach) & (rel <= arm_rel.max(axis=0) + reach), axis=1)
+    if not box.any():
+        return False
+    d = np.linalg.norm(rel[box][:, None, :] - arm_rel[None, :, :], axis=2)
+    return bool(d.min() < reach)
