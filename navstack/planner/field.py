@@ -460,7 +460,7 @@ class FieldPlanner(Recovery):
         plan = f.plan
         if plan.status != REACHED and self.time - self._planned_at >= cfg.replan_period:
             return True
-        if f.remaining <= 0.0 and self.command_goal < len(self.goals):
+        if plan.status == REACHED and f.remaining <= 0.0 and self.command_goal < len(self.goals):
             return True  # at the end of a plan up to where the tour turns back (_to_turn_back)
         new = self.map.new_points
         if len(new):  # a new point near the plan ahead (every fourth sample over the horizon)
