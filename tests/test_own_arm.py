@@ -57,6 +57,21 @@ def test_an_arm_behind_the_flange_is_never_reached_going_forward():
     assert turns_into_arm(HISTORY, back, arm)
 
 
+@pytest.mark.parametrize(("goal", "expected"), [
+    ((0.1, 0.0, 0.0), False),  # straight ahead
+    ((-0.01, 0.3, 0.0), True),  # behind the plane
+    ((0.15, 0.1, 0.0), True),  # inside the circle: centre (0, 0.25), 0.212 from it
+    ((0.15, 0.0, 0.1), True),  # the same, turning up
+    ((0.2, 0.1 - 1e-6, 0.0), False),  # 0.25 from the centre: on its edge (just outside)
+    ((0.3, 0.1, 0.0), False),  # 0.335 from the centre: outside
+    ((0.0, 0.6, 0.0), False),  # beside, beyond the circle
+])
+def test_out_of_forward_reach_closed_form(goal, expected):
+    from navstack.planner.field import _out_of_reach
+
+    assert _out_of_reach(np.zeros(3), np.array([2.0, 0.0, 0.0]), np.array(goal), 0.25) is expected
+
+
 def test_config_is_checked():
     with pytest.raises(ValueError, match="margin"):
         OwnArmConfig(margin=0.0)
@@ -93,6 +108,7 @@ def _self_distance(world: navstack.World, q: np.ndarray) -> float:
     ([[0.30, 0.0, 0.0], [0.15, 0.0, 0.0]], 2),  # the second goal on the way in: backed to
     ([[0.35, 0.0, 0.0], [0.15, 0.0, 0.35]], 2),  # behind and above: backed out, then forward again
     ([[0.3, 0.0, 0.0], [0.1, 0.0, 0.0], [0.45, 0.0, 0.1], [0.2, 0.0, 0.05]], 4),  # turning back twice
+    ([[0.3, 0.0, 0.0], [0.35, 0.4, 0.0]], 2),  # beside, inside the turning circle: backed out to turn wider
 ])
 def test_a_goal_behind_the_one_before_is_reached_without_touching_the_arm(tmp_path, ahead, min_goals):
     """Goals in an empty world, the next behind the one before (on main before session 34: stalled, no goal

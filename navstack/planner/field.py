@@ -180,6 +180,20 @@ def _without_via(via: Plan, k: int, goals: NDArray[np.float64]) -> Plan:
     return replace(via, goal_index=index.astype(np.int64), stops=stops)
 
 
+def _out_of_reach(p: NDArray[np.float64], heading: NDArray[np.float64], goal: NDArray[np.float64],
+                  radius: float) -> bool:
+    """Whether ``goal`` lies behind the plane through ``p`` normal to ``heading``, or within the circle of
+    ``radius`` [m] on which the tip at ``p`` would turn towards it (in the plane of ``heading`` and ``goal - p``):
+    moving forward with curvature at most ``1 / radius``, the tip would first have to turn away or round."""
+    n = float(np.linalg.norm(heading))
+    if n < 1e-12:
+        return False
+    r = goal - p
+    along = float(np.dot(r, heading)) / n
+    lateral = float(np.sqrt(max(float(np.dot(r, r)) - along * along, 0.0)))
+    return along < 0.0 or along * along + (lateral - radius) ** 2 < radius * radius
+
+
 class FieldPlanner(Recovery):
     """Sensor-based tip planner (see the module docstring).
 
@@ -314,16 +328,17 @@ class FieldPlanner(Recovery):
     def _to_turn_back(self, p: NDArray[np.float64], h: NDArray[np.float64], k: int, config: SearchConfig,
                       history: NDArray[np.float64]) -> Plan | None:
         """When no plan reaches every goal from ``k`` on: a plan through the goals from ``k`` up to the first goal
-        ``j`` after which the tour turns back (goal ``j + 1`` lies back towards the goal before ``j``, or towards
-        the start ``p``), if goal ``j + 1`` lies behind where that plan ends (behind the plane through its end,
-        normal to its heading).  The tip moves forward only: the whole tour would need a loop round, through the
-        robot's own body when the next goal lies on the way in.  Once at goal ``j`` the planner finds no way on
-        forward and backs along its own path (an escape) to where the next goals are reached, or planned to
-        forward.  None otherwise."""
+        ``j`` after which the tour turns back or sharper than the turning limit (goal ``j + 1`` lies behind goal
+        ``j`` or within its turning circle, for the heading from the goal before ``j``, or from ``p``), if goal
+        ``j + 1`` is out of forward reach where that plan ends (:func:`_out_of_reach`).  The tip moves forward only:
+        the whole tour would need a loop round, through the robot's own body when the next goal lies on the way in.
+        Once at goal ``j`` the planner finds no way on forward and backs along its own path (an escape) to where
+        the next goals are reached, or planned to forward.  None otherwise."""
         g = self.goals
+        radius = config.min_turn_radius
         prev, j = p, None
         for i in range(k, len(g) - 1):
-            if float(np.dot(g[i + 1] - g[i], g[i] - prev)) < 0.0:
+            if _out_of_reach(g[i], g[i] - prev, g[i + 1], radius):
                 j = i
                 break
             prev = g[i]
@@ -332,7 +347,7 @@ class FieldPlanner(Recovery):
         plan = self._clear_of_arm(search(self.map, p, h, g[: j + 1], self.tolerances[: j + 1], k, config,
                                          self.config.repulsion, history=history, nav=self._navigation(p, k, False),
                                          arm=self.arm), history)
-        if plan.status != REACHED or float(np.dot(g[j + 1] - plan.points[-1], plan.tangents[-1])) >= 0.0:
+        if plan.status != REACHED or not _out_of_reach(plan.points[-1], plan.tangents[-1], g[j + 1], radius):
             return None
         self.turn_back_plans += 1
         return plan
