@@ -443,6 +443,12 @@ def test_a_full_search_that_reaches_nothing_tries_again_with_a_larger_goal_ball(
         assert np.linalg.norm(plan.points - g, axis=1).min() <= field.RELAXED_GOAL_FRACTION * 0.02 + 1e-9
     assert np.linalg.norm(plan.points - g2, axis=1).min() > 0.7 * 0.02  # the first try's ball could not hold it
     monkeypatch.setattr(field, "RELAXED_GOAL_FRACTION", 0.7)
+    # (g2 lies within the turning circle at g1: since session 34 a plan up to g1 alone is kept then, to back out
+    # for g2 from there (FieldPlanner._to_turn_back); without that too, only the partial plan is left)
+    alone = FieldPlanner([0, 0, 0], [1, 0, 0], [g1, g2], [0.02, 0.02])
+    assert alone.follower.plan.status == REACHED and alone.turn_back_plans == 1
+    assert np.linalg.norm(alone.follower.plan.points - g2, axis=1).min() > 0.02  # it ends at g1
+    monkeypatch.setattr(field, "_out_of_reach", lambda *args: False)
     assert FieldPlanner([0, 0, 0], [1, 0, 0], [g1, g2], [0.02, 0.02]).follower.plan.status == PARTIAL
 
 
