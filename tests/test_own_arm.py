@@ -20,7 +20,9 @@ from navstack.sim.body import RobotBody
 from navstack.world import world_from_dict
 
 CFG = OwnArmConfig()
-REACH = 0.06 + CFG.body_radius + CFG.margin  # arm radius + serpentine radius + margin [m]
+LINK, RADIUS = 0.2, 0.025  # the serpentine's link length and radius [m] (SearchConfig's, Repulsion's)
+BODY = CFG.links * LINK
+REACH = 0.06 + RADIUS + CFG.margin  # arm radius + serpentine radius + margin [m]
 
 
 def _line(x0: float, x1: float, spacing: float = 0.02) -> np.ndarray:
@@ -40,21 +42,21 @@ PLAN = _line(0.0, 0.6)
 def test_an_arm_point_beside_the_body(offset, expected):
     """An arm point 0.7 m ahead of the flange, ``offset`` to the side: it moves with the flange, so it stays
     beside the body's middle; within the reach it is hit, just outside it is not."""
-    assert turns_into_arm(HISTORY, PLAN, _arm((-0.5, offset, 0.0))) is expected
+    assert turns_into_arm(HISTORY, PLAN, _arm((-0.5, offset, 0.0)), LINK, RADIUS) is expected
 
 
 def test_the_body_next_to_the_flange_is_not_checked():
     """The serpentine joins the arm at the flange: an arm point on the flange itself is no hit."""
-    assert not turns_into_arm(HISTORY, PLAN, _arm((-1.2, 0.0, 0.0)))
-    assert turns_into_arm(HISTORY, PLAN, _arm((-1.2 + CFG.skip + 0.02, 0.0, 0.0)))
+    assert not turns_into_arm(HISTORY, PLAN, _arm((-1.2, 0.0, 0.0)), LINK, RADIUS)
+    assert turns_into_arm(HISTORY, PLAN, _arm((-1.2 + CFG.skip + 0.02, 0.0, 0.0)), LINK, RADIUS)
 
 
 def test_an_arm_behind_the_flange_is_never_reached_going_forward():
     arm = ArmShape(_line(-2.0, -1.26, 0.05), np.array([-1.2, 0.0, 0.0]), 0.06)
-    assert not turns_into_arm(HISTORY, PLAN, arm)
+    assert not turns_into_arm(HISTORY, PLAN, arm, LINK, RADIUS)
     # a plan turning straight back along the way in runs into it
     back = np.vstack([PLAN, _line(-0.9, 0.58)[::-1]])
-    assert turns_into_arm(HISTORY, back, arm)
+    assert turns_into_arm(HISTORY, back, arm, LINK, RADIUS)
 
 
 @pytest.mark.parametrize(("goal", "expected"), [
@@ -131,13 +133,13 @@ def _brute_force(history, plan, arm, cfg=CFG) -> bool:
     s = np.append(np.arange(0.0, arc[-1], cfg.spacing), arc[-1])
     pts = np.column_stack([np.interp(s, arc, path[:, k]) for k in range(3)])
     start = s[-1] - np.linalg.norm(np.diff(plan, axis=0), axis=1).sum()
-    reach = arm.radius + cfg.body_radius + cfg.margin
+    reach = arm.radius + RADIUS + cfg.margin
     for a in range(len(s)):
-        if not (start - cfg.body_length - 1e-9 <= s[a] <= s[-1] - cfg.body_length):
+        if not (start - BODY - 1e-9 <= s[a] <= s[-1] - BODY):
             continue
         arm_now = arm.points + (pts[a] - arm.flange)
         for b in range(len(s)):
-            if cfg.skip <= s[b] - s[a] <= cfg.body_length and s[b] >= start - cfg.body_length + cfg.skip:
+            if cfg.skip <= s[b] - s[a] <= BODY and s[b] >= start - BODY + cfg.skip:
                 if np.min(np.linalg.norm(arm_now - pts[b], axis=1)) < reach:
                     return True
     return False
@@ -156,6 +158,6 @@ def test_agrees_with_the_rule_written_plainly():
                                         np.linspace(-0.5, 0.0, n) * rng.uniform(0.0, 1.0)]),
                        np.array([-1.2, 0.0, 0.0]), 0.06)
         expected = _brute_force(HISTORY, plan, arm)
-        assert turns_into_arm(HISTORY, plan, arm) is expected
+        assert turns_into_arm(HISTORY, plan, arm, LINK, RADIUS) is expected
         hits += expected
     assert 8 <= hits <= 52  # both answers occur (14 of 60 with this seed)

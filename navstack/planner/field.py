@@ -384,8 +384,9 @@ class FieldPlanner(Recovery):
     def _clear_of_arm(self, plan: Plan, history: NDArray[np.float64]) -> Plan:
         """``plan``, or none (``NO_PATH``) if following it would carry the serpentine into the robot's own arm
         (:func:`~navstack.planner.own_arm.turns_into_arm`: a loop round to a goal behind the one before it)."""
-        if plan.status == NO_PATH or self.arm is None or not turns_into_arm(history, plan.points, self.arm,
-                                                                            self.config.own_arm):
+        if plan.status == NO_PATH or self.arm is None or not turns_into_arm(
+                history, plan.points, self.arm, self.config.search.link_length, self.config.repulsion.body_radius,
+                self.config.own_arm):
             return plan
         self.arm_refusals += 1
         return Plan(plan.points[:1].copy(), plan.tangents[:1].copy(), np.zeros(1), plan.goal_index[:1].copy(),

@@ -28,29 +28,23 @@ __all__ = ["OwnArmConfig", "turns_into_arm"]
 class OwnArmConfig:
     """How near the serpentine may come to its own arm on a plan.
 
+    The serpentine's link length and radius are the search's and the repulsion's (the caller passes them).
+
     Attributes:
-        link_length: serpentine link length [m]; ``links``: serpentine links from the flange to the tip.
-        body_radius: the serpentine capsules' radius [m].
+        links: serpentine links from the flange to the tip.
         margin: clearance kept between the serpentine's and the arm's surfaces [m].
         skip: the serpentine within this arc length [m] of the flange is not checked (it joins the arm there).
         spacing: the path is checked every ``spacing`` [m], and the flange's places along it too.
     """
 
-    link_length: float = 0.2
     links: int = 6
-    body_radius: float = 0.025
     margin: float = 0.01
     skip: float = 0.3
     spacing: float = 0.02
 
     def __post_init__(self) -> None:
-        positive(self, "link_length", "body_radius", "margin", "skip", "spacing")
+        positive(self, "margin", "skip", "spacing")
         integer(self, "links", lo=1)
-
-    @property
-    def body_length(self) -> float:
-        """Arc length from the flange to the tip [m]."""
-        return self.links * self.link_length
 
 
 def _resample(points: NDArray[np.float64], spacing: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -61,8 +55,8 @@ def _resample(points: NDArray[np.float64], spacing: float) -> tuple[NDArray[np.f
     return np.column_stack([np.interp(s, arc, points[:, i]) for i in range(3)]), s
 
 
-def turns_into_arm(history: ArrayLike, plan_points: ArrayLike, arm: ArmShape,
-                   config: OwnArmConfig | None = None) -> bool:
+def turns_into_arm(history: ArrayLike, plan_points: ArrayLike, arm: ArmShape, link_length: float,
+                   body_radius: float, config: OwnArmConfig | None = None) -> bool:
     """Whether following ``plan_points`` brings the serpentine within ``config.margin`` of the arm.
 
     Args:
@@ -70,6 +64,8 @@ def turns_into_arm(history: ArrayLike, plan_points: ArrayLike, arm: ArmShape,
             (the serpentine lies along it).
         plan_points: (n, 3) the plan's samples, ``plan_points[0]`` its start (= ``history[-1]``) [m].
         arm: the arm at the trial's start; at each moment it is taken translated by the flange's displacement.
+        link_length: the serpentine's link length [m] (``SearchConfig.link_length``).
+        body_radius: the serpentine capsules' radius [m] (``Repulsion.body_radius``).
         config: the clearances (``None`` = defaults).
 
     The serpentine at path arc length ``s`` is there while the flange is between ``s - body_length`` and ``s``
@@ -77,6 +73,7 @@ def turns_into_arm(history: ArrayLike, plan_points: ArrayLike, arm: ArmShape,
     plan's start on is checked against the arm at those flange places, except within ``skip`` of the flange.
     """
     cfg = config or OwnArmConfig()
+    body_length = cfg.links * link_length  # from the flange to the tip [m]
     plan = np.asarray(plan_points, dtype=np.float64).reshape(-1, 3)
     path = np.vstack([np.asarray(history, dtype=np.float64).reshape(-1, 3), plan[1:]])
     if len(path) < 2:
@@ -84,16 +81,16 @@ def turns_into_arm(history: ArrayLike, plan_points: ArrayLike, arm: ArmShape,
     pts, s = _resample(path, cfg.spacing)
     start = s[-1] - float(np.linalg.norm(np.diff(plan, axis=0), axis=1).sum())  # the plan's start, as arc length
     # where the flange goes while the plan is followed: from where it is now to the plan's end less the body
-    f = np.flatnonzero((s >= start - cfg.body_length - 1e-9) & (s <= s[-1] - cfg.body_length))
+    f = np.flatnonzero((s >= start - body_length - 1e-9) & (s <= s[-1] - body_length))
     if not len(f):
         return False
     # every (flange place, path point) pair with the serpentine there then: between skip and its length ahead
-    i = np.minimum(f[:, None] + np.arange(int(np.ceil(cfg.body_length / cfg.spacing)) + 2)[None, :], len(s) - 1)
+    i = np.minimum(f[:, None] + np.arange(int(np.ceil(body_length / cfg.spacing)) + 2)[None, :], len(s) - 1)
     ahead = s[i] - s[f][:, None]
-    on = (ahead >= cfg.skip) & (ahead <= cfg.body_length) & (s[i] >= start - cfg.body_length + cfg.skip)
+    on = (ahead >= cfg.skip) & (ahead <= body_length) & (s[i] >= start - body_length + cfg.skip)
     rel = pts[i[on]] - pts[np.broadcast_to(f[:, None], i.shape)[on]]  # the body point from the flange
     arm_rel = arm.points - arm.flange  # the arm from the flange (it moves with it)
-    reach = arm.radius + cfg.body_radius + cfg.margin
+    reach = arm.radius + body_radius + cfg.margin
     box = np.all((rel >= arm_rel.min(axis=0) - reach) & (rel <= arm_rel.max(axis=0) + reach), axis=1)
     if not box.any():
         return False
