@@ -582,8 +582,9 @@ def read_sweep_file(sweep_path: Path) -> dict[str, Any]:
 
 
 def _prepare_dir(out_dir: Path, specs: Sequence[TrialSpec], config: dict[str, Any] | None,
-                 command: str | None) -> None:
-    """Create ``out_dir`` and its ``sweep.json``, or check that the stored sweep is the same one."""
+                 command: str | None) -> bool:
+    """Create ``out_dir`` and its ``sweep.json``, or check that the stored sweep is the same one; True if this
+    call wrote ``sweep.json``."""
     if out_dir.exists() and not out_dir.is_dir():
         raise SweepError(f"--out: {out_dir} exists and is not a directory")
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -602,13 +603,14 @@ def _prepare_dir(out_dir: Path, specs: Sequence[TrialSpec], config: dict[str, An
             raise SweepError(
                 f"{out_dir} holds a different sweep ({len(have)} stored trials, {len(wanted)} requested; "
                 f"first difference at {what}). Resume it with its original arguments or choose a new --out.")
-        return
+        return False
     if (out_dir / RESULTS_NAME).exists():
         raise SweepError(f"{out_dir / RESULTS_NAME} exists but {sweep_path} does not: not a navstack sweep "
                          f"directory (or its sweep.json was removed); choose a new --out")
     doc = {"format": SWEEP_FORMAT, "config": config, "command": command, "n_trials": len(wanted),
            "trials": wanted, "world_files": hashes}
     _atomic_write_bytes(sweep_path, (json.dumps(doc, indent=1) + "\n").encode("utf-8"))
+    return True
 
 
 def _differences(stored: Any, wanted: dict[str, Any]) -> str:
@@ -806,8 +808,15 @@ def run_sweep(specs: Iterable[TrialSpec], out_dir: str | Path, jobs: int | None 
                keep_trajectories=keep_trajectories, backend=backend, ray_address=ray_address, progress=progress,
                animate_failures=animate_failures)
     with _exclusive_lock(out):
-        _prepare_dir(out, specs, cfg, command)
-        return run.sweep(specs)
+        created = _prepare_dir(out, specs, cfg, command)
+        try:
+            return run.sweep(specs)
+        except SweepError:
+            if created and not (out / RESULTS_NAME).exists():
+                # nothing ran (the backend did not start): leave no sweep.json that a rerun with other arguments
+                # would refuse as "a different sweep"
+                (out / SWEEP_NAME).unlink(missing_ok=True)
+            raise
 
 
 @contextlib.contextmanager

@@ -270,6 +270,34 @@ def test_raising_hanging_and_dying_trials_are_errors_and_sweep_completes(tmp_pat
     assert all(recs[f"w{i:02d}__000__slither__field"]["reason"] in ("reached", "collision") for i in range(3))
 
 
+def test_a_backend_that_does_not_start_leaves_no_sweep_behind(tmp_path, monkeypatch):
+    """A Ray address that answers nothing left a ``sweep.json`` with no trial run: the same command with other
+    arguments was then refused as "a different sweep". Now only a sweep stored before the failure is kept."""
+    import navstack.executors as executors
+
+    def no_backend(backend, **kw):
+        raise executors.BackendError("ray: at 127.0.0.1:9: nothing accepts connections")
+
+    folder = write_worlds(tmp_path / "in", 2)
+    specs = build_specs(SweepConfig(worlds_dir=str(folder)))
+    out = tmp_path / "out"
+    monkeypatch.setattr(executors, "make_executor", no_backend)
+    with pytest.raises(SweepError, match="nothing accepts connections"):
+        run_sweep(specs, out, runner=fake_runner, progress=False, backend="ray")
+    assert not (out / "sweep.json").exists() and not (out / "results.jsonl").exists()
+    with pytest.raises(SweepError, match="nothing accepts connections"):  # other arguments: not "a different sweep"
+        run_sweep(specs[:1], out, runner=fake_runner, progress=False, backend="ray")
+    monkeypatch.undo()
+    run_sweep(specs, out, jobs=1, runner=fake_runner, progress=False)
+    stored = (out / "sweep.json").read_bytes()
+    first = (out / "results.jsonl").read_text().splitlines(keepends=True)[0]
+    (out / "results.jsonl").write_text(first)  # one trial left to run
+    monkeypatch.setattr(executors, "make_executor", no_backend)
+    with pytest.raises(SweepError, match="nothing accepts connections"):  # a sweep stored before: kept
+        run_sweep(specs, out, runner=fake_runner, progress=False, backend="ray")
+    assert (out / "sweep.json").read_bytes() == stored and (out / "results.jsonl").read_text() == first
+
+
 def _retracting_and_raising(family: str, seed: int, difficulty: float) -> dict:
     world = fake_generator(family, seed, difficulty)
     world["retract"] = True  # a family whose worlds ask for retraction themselves (dead-end), no --retract
