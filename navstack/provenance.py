@@ -4,8 +4,9 @@
 
 * ``navstack``: ``navstack.__version__`` of the source that ran the trial;
 * ``commit``: the git commit (40 hex digits) of that source when it is a git checkout in which navstack's own
-  files are tracked, else ``None`` (an installed wheel, no ``git``, or navstack inside someone else's repo);
-  uncommitted edits are not visible in it;
+  files are tracked and none of them differs from that commit, else ``None`` (an installed wheel, no ``git``,
+  navstack inside someone else's repo, or edited, added or removed files in the package: the source that ran
+  is then no commit, and naming the one it started from would credit it with results it did not give);
 * ``python``, ``pybullet``, ``numpy``: versions (``None`` when a package is not installed); PyBullet is not
   imported for this, its installed distribution's metadata is read;
 * ``host``: ``socket.gethostname()`` of the process that ran the trial;
@@ -46,10 +47,14 @@ def source_commit(package_dir: str | Path | None = None) -> str | None:
     """The git commit of navstack's source folder ``package_dir`` (default: this package), or ``None``.
 
     ``None`` unless ``package_dir/__init__.py`` is tracked by the enclosing git repository, so a navstack
-    installed into some other project's checkout is not credited with that project's commit.
+    installed into some other project's checkout is not credited with that project's commit; ``None`` too when
+    a file in ``package_dir`` differs from that commit (``git status``: edited, staged, removed, or new and not
+    ignored).
     """
     folder = Path(package_dir) if package_dir is not None else Path(__file__).resolve().parent
     if _git(folder, "ls-files", "--error-unmatch", "__init__.py") is None:
+        return None
+    if _git(folder, "status", "--porcelain", "--", ".") != "":  # (None: git failed; "": clean)
         return None
     commit = _git(folder, "rev-parse", "HEAD")
     if commit is None or len(commit) != 40 or any(c not in "0123456789abcdef" for c in commit):

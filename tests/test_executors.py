@@ -206,6 +206,16 @@ def test_source_commit_only_for_a_tracked_navstack(tmp_path):
     _git(repo, "add", "navstack/__init__.py")
     _git(repo, "-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "navstack")
     assert provenance.source_commit(pkg) == _git(repo, "rev-parse", "HEAD").strip()
+    (repo / "other.txt").write_text("y")  # an edit outside the package: still that commit
+    assert provenance.source_commit(pkg) == _git(repo, "rev-parse", "HEAD").strip()
+    head = _git(repo, "rev-parse", "HEAD").strip()
+    for edit, expected in ((lambda: (pkg / "__init__.py").write_text("x = 1\n"), None),  # edited
+                           (lambda: _git(repo, "add", "navstack/__init__.py"), None),  # staged
+                           (lambda: _git(repo, "reset", "-q", "--hard"), head),  # as committed again
+                           (lambda: (pkg / "new.py").write_text(""), None),  # a new file
+                           (lambda: (pkg / "new.py").unlink(), head)):
+        edit()
+        assert provenance.source_commit(pkg) == expected
 
 
 def test_provenance_keys_and_version_key():
