@@ -389,8 +389,8 @@ class FieldPlanner(Recovery):
                 self.config.own_arm):
             return plan
         self.arm_refusals += 1
-        return Plan(plan.points[:1].copy(), plan.tangents[:1].copy(), np.zeros(1), plan.goal_index[:1].copy(),
-                    NO_PATH, float("inf"), plan.expansions, repulsion=plan.repulsion)
+        return Plan.standing(plan.points[0], plan.tangents[0], int(plan.goal_index[0]), cost=float("inf"),
+                             expansions=plan.expansions, repulsion=plan.repulsion)
 
     def _history(self, end: float, length: float, spacing: float = 0.02) -> NDArray[np.float64]:
         """The commanded path's ``length`` [m] up to arc length ``end``, every ``spacing`` [m], oldest first."""

@@ -197,8 +197,7 @@ class Recovery:
         map forgot nothing while the tip backed out, the wait is still quiet and the next look-back (if the goal
         has one left) follows at once, from farther back."""
         p, t = self.path.point_at(self.path.end_arc_length)
-        here = Plan(points=p[None].copy(), tangents=t[None].copy(), arc=np.zeros(1),
-                    goal_index=np.array([self.command_goal]), status=NO_PATH, cost=0.0, expansions=0)
+        here = Plan.standing(p, t, self.command_goal)
         self.follower = PlanFollower(here, self.config.steering, 0.0)
         self._replan_waiting(wait)
 

@@ -237,6 +237,15 @@ class Plan:
     stops: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     repulsion: Repulsion | None = None
 
+    @classmethod
+    def standing(cls, point: NDArray[np.float64], tangent: NDArray[np.float64], goal_index: int, *,
+                 cost: float = 0.0, expansions: int = 0, repulsion: Repulsion | None = None) -> Plan:
+        """A ``NO_PATH`` plan: the single sample ``point`` [m] with unit ``tangent``, goal ``goal_index`` next."""
+        return cls(points=np.array(point, dtype=float).reshape(1, 3),
+                   tangents=np.array(tangent, dtype=float).reshape(1, 3), arc=np.zeros(1),
+                   goal_index=np.array([goal_index], dtype=np.int64), status=NO_PATH, cost=cost,
+                   expansions=expansions, repulsion=repulsion)
+
     @property
     def length(self) -> float:
         return float(self.arc[-1])
