@@ -15,6 +15,10 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
+from navstack.numba_cache import configure as _configure_numba_cache
+
+_configure_numba_cache()  # before any kernel is compiled or loaded: numba's cache keyed by the kernels' sources
+
 if TYPE_CHECKING:
     from navstack.jpl import jpl_serpentine
     from navstack.kinematics import Chain

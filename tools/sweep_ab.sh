@@ -16,6 +16,7 @@ B=${2:-HEAD}
 ROUNDS=${3:-1}
 work=$(mktemp -d /tmp/sweep_ab.XXXXXX)
 cd "$work"
+export NAVSTACK_NUMBA_CACHE_ROOT="$work/numba"  # revisions keying numba's cache (navstack/numba_cache.py) keep it here
 SWEEP=(trials --generate truss cluttered-truss pipe-rack sphere-field --count 25 --seed 2026
        --controller slither --controller tip-only --jobs 2)
 
