@@ -102,3 +102,19 @@ if "numba" in sys.modules:  # a plugin imported numba first: its config has alre
 if "navstack" in sys.modules:
     raise RuntimeError("navstack was imported before tests/conftest.py set NUMBA_CACHE_DIR; the numba cache "
                        "could be stale")
+
+
+def pytest_collection_modifyitems(config, items) -> None:
+    """Modules holding a ``slow`` test run first, each module's tests kept together and in their own order.
+
+    Under ``pytest -n auto --dist worksteal`` (the README's test command) a worker that runs out of tests takes
+    pending ones from the other; a closed-loop test of minutes started last would leave one core idle while it
+    runs (the suite took 10 min 47 s on two workers in that order, against 16 min 51 s on one). Started first,
+    the long tests overlap everything else. Modules stay whole so their module-scoped fixtures are built once
+    per worker.
+    """
+    modules: dict[str, list] = {}
+    for item in items:
+        modules.setdefault(item.module.__name__ if item.module else item.nodeid, []).append(item)
+    ordered = sorted(modules.values(), key=lambda group: not any(i.get_closest_marker("slow") for i in group))
+    items[:] = [item for group in ordered for item in group]

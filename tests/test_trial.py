@@ -190,6 +190,7 @@ def test_joint_limit_is_reported():
     assert r.reason == "joint_limit" and not r.success and r.sim_time < 110.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(p.stem for p in WORLDS.glob("*.json")))
 def test_field_planner_reaches_every_goal_of_every_example_world(name):
     """Closed loop with the sensor-based planner (no script) on every world shipped in ``worlds/``, the ones the
