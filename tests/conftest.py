@@ -110,11 +110,12 @@ def pytest_collection_modifyitems(config, items) -> None:
     Under ``pytest -n auto --dist worksteal`` (the README's test command) a worker that runs out of tests takes
     pending ones from the other; a closed-loop test of minutes started last would leave one core idle while it
     runs (the suite took 10 min 47 s on two workers in that order, against 16 min 51 s on one). Started first,
-    the long tests overlap everything else. Modules stay whole so their module-scoped fixtures are built once
-    per worker.
+    the long tests overlap everything else. A module's tests stay contiguous, so a worker does not tear down and
+    rebuild its module-scoped fixtures between them (a steal may still split a module between the two workers).
     """
     modules: dict[str, list] = {}
     for item in items:
-        modules.setdefault(item.module.__name__ if item.module else item.nodeid, []).append(item)
+        module = getattr(item, "module", None)  # absent from items that are not Python functions
+        modules.setdefault(module.__name__ if module is not None else item.nodeid, []).append(item)
     ordered = sorted(modules.values(), key=lambda group: not any(i.get_closest_marker("slow") for i in group))
     items[:] = [item for group in ordered for item in group]
