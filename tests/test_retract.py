@@ -78,9 +78,9 @@ def test_paper_truss_in_up_out_and_back_out_of_the_entry(tmp_path):
           f"deviation in {dev_in * 1e3:.3f} mm, out {dev_out * 1e3:.3f} mm")
     assert r.success and r.reason == "reached" and r.retracted is True and r.goals_reached == 4
     assert m["contacts"] == 0 and m["min_clearance"] > 0.0
-    # the issue asks below 1 mm both ways; measured 0.027 mm both ways (servo with gravity feed-forward):
-    # bound at 0.1 mm, so losing the feed-forward (0.83 mm) fails here too
-    assert m["slither_deviation_max"] < 1e-4 and dev_in < 1e-4 and dev_out < 1e-4
+    # the issue asks below 1 mm both ways; measured 0.042 mm in and 0.078 mm out (servo with gravity feed-forward,
+    # backing out at 0.1 m/s): bound at 0.25 mm, so losing the feed-forward (0.83 mm) fails here too
+    assert m["slither_deviation_max"] < 2.5e-4 and dev_in < 2.5e-4 and dev_out < 2.5e-4
     data = json.loads((tmp_path / "result.json").read_text())
     assert data["retracted"] is True
     q_end = np.load(tmp_path / "trajectory.npz")["q"][-1]
@@ -109,12 +109,13 @@ LOOP = [(2.2, 1.1668), (2.45, 1.4168), (2.2, 1.6668), (1.95, 1.4168), (1.82, 1.1
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("time_limit", "retracted"), [(50.0, False), (90.0, True)])
+@pytest.mark.parametrize(("time_limit", "retracted"), [(40.0, False), (90.0, True)])
 def test_a_way_in_that_passes_near_the_start_is_backed_out_of_whole(tmp_path, time_limit, retracted):
     """The tip backing out along a looped way in passes within 0.02 m of its start after 0.14 m of 1.96 m: that
     once ended the retraction (``retracted: true``, a success) with every joint point still 0.3-1.8 m in.  The
-    whole path must be backed out of: 50 s is too short for that (a timeout), 90 s is enough, and then every
-    joint point is back where it started (recomputed from the measured joints)."""
+    whole path must be backed out of: 40 s is too short for that (a timeout; the way in takes about 32 s, the
+    way out 18 s), 90 s is enough, and then every joint point is back where it started (recomputed from the
+    measured joints)."""
     from navstack.generate.base import robot_dict
 
     data = {"format": "navstack-world/1", "name": "loop-retract", "robot": robot_dict(), "obstacles": [],
