@@ -58,6 +58,8 @@ def _summary(result) -> str:
         f"  tip_error_max {m['tip_error_max'] * 1e3:.2f} mm, slither_deviation_max "
         f"{m['slither_deviation_max'] * 1e3:.3f} mm, min_clearance {_mm(m['min_clearance'])}, "
         f"contacts {m['contacts']}"
+        + (f"\n  the robot touched itself in {result.self_contacts} control steps (least distance "
+           f"{result.self_clearance})" if getattr(result, "self_contacts", 0) else "")
     )
 
 

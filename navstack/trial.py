@@ -50,6 +50,7 @@ import numpy as np
 from navstack.jpl import BACKBONE_FRAMES, jpl_serpentine
 from navstack.planner.field import FieldPlannerConfig
 from navstack.planner.reactive import PlannerConfig
+from navstack.self_contact import self_clearance, self_pairs
 from navstack.sensing import SensorConfig
 from navstack.sim.servo import ServoConfig
 from navstack.validate import instance, positive
@@ -123,9 +124,15 @@ class TrialResult:
     error: str | None = None
     retracted: bool | None = None
     """``retract`` worlds only: whether the retraction completed (absent from ``result.json`` otherwise)."""
+    self_contacts: int = 0
+    """Control steps in which the robot touched itself (:mod:`navstack.self_contact`; they make ``reason``
+    ``collision``).  Not in ``result.json``, whose ``contacts`` counts obstacle contacts (interfaces.md 3)."""
+    self_clearance: str = ""
+    """The robot's least distance to itself over the trial, and where (for a person; not in ``result.json``)."""
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
+        del d["self_contacts"], d["self_clearance"]
         for optional in ("error", "retracted"):
             if d[optional] is None:
                 del d[optional]
@@ -491,6 +498,9 @@ class _Simulation:
         self.min_clearance = np.inf
         self._capsules_before = None  # the robot's capsules at the last measurement (the swept check)
         self.contacts = 0
+        self.self_pairs = self_pairs(self.body.link_radii)  # the robot's own capsules (navstack.self_contact)
+        self.self_contacts = 0
+        self.self_clearance = (np.inf, "")  # the least [m], and between which links
         self.pinned_time = 0.0
         self.tip_des = tip0.copy()
         self.tip_des_reverse = False
@@ -532,12 +542,27 @@ class _Simulation:
         self.min_clearance = min(self.min_clearance, clearance)
         if clearance <= 0.0:
             self.contacts += 1
+        self._measure_self(capsules)
         path = self.controller.path
         points = F[BACKBONE_FRAMES[1:], :3, 3]
         many = getattr(path, "max_distance_to_path", None)  # PathMemory's: one compiled call for all six
         deviation = many(points) if many is not None else max(path.distance_to_path(p) for p in points)
         self.slither_dev_max = max(self.slither_dev_max, deviation)
         return tip, F
+
+    def _measure_self(self, capsules: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
+        """Count a step whose robot touches itself (:mod:`navstack.self_contact`); keep the least distance."""
+        gap, k = self_clearance(*capsules, self.self_pairs)
+        if gap <= 0.0:
+            self.self_contacts += 1
+        if gap < self.self_clearance[0]:
+            frames = np.flatnonzero(self.body.link_radii > 0.0) + 1
+            self.self_clearance = (gap, f"the capsules of DH frames {frames[self.self_pairs[0][k]]} and "
+                                        f"{frames[self.self_pairs[1][k]]}")
+
+    def _ended(self, reason: str) -> str:
+        """``reason``, unless the robot touched an obstacle or itself on the way: then ``collision``."""
+        return "collision" if self.contacts or self.self_contacts else reason
 
     def _advance_goals(self, tip: np.ndarray) -> None:
         while self.goal_index < len(self.goals) and (
@@ -571,14 +596,14 @@ class _Simulation:
         while True:
             self._advance_goals(tip)
             if self.goal_index >= len(self.goals) and (not self.world.retract or self._retracted(tip)):
-                return "collision" if self.contacts else "reached"
+                return self._ended("reached")
             if pinned >= pinned_steps:  # after the goals: one reached on this very sample still counts
-                return "collision" if self.contacts else "joint_limit"
+                return self._ended("joint_limit")
             if self.steps >= limit_steps:
-                return "collision" if self.contacts else "timeout"
+                return self._ended("timeout")
             cmd = self._plan(tip, F) if self.goal_index < len(self.goals) else self._retract()
             if cmd.stalled:
-                return "collision" if self.contacts else "stalled"
+                return self._ended("stalled")
             x_d = np.asarray(cmd.position, dtype=np.float64)
             v_d = np.asarray(cmd.velocity, dtype=np.float64)
             if not (np.isfinite(x_d).all() and np.isfinite(v_d).all()):
@@ -672,6 +697,9 @@ class _Simulation:
             },
             error=error,
             retracted=bool(self.retracted) if self.world.retract else None,
+            self_contacts=int(self.self_contacts),
+            self_clearance=(f"{self.self_clearance[0] * 1e3:.1f} mm between {self.self_clearance[1]}"
+                            if np.isfinite(self.self_clearance[0]) else ""),
         )
 
     def _reported_clearance(self, reason: str) -> float | None:
