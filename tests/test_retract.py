@@ -123,8 +123,10 @@ def test_a_way_in_that_passes_near_the_start_is_backed_out_of_whole(tmp_path, ti
             "time_limit": time_limit, "retract": True}
     world = world_from_dict(data)
     r = run_trial(world, planner="scripted", out_dir=tmp_path)
-    assert r.goals_reached == len(LOOP) and r.retracted is retracted and r.success is retracted
-    assert r.reason == ("reached" if retracted else "timeout")
+    assert r.goals_reached == len(LOOP) and r.retracted is retracted
+    # the scripted loop takes the tip link into the arm (test_self_contact.py): a collision with itself either
+    # way (since session 37; it read as a success before), with no obstacle touched
+    assert r.reason == "collision" and not r.success and r.self_contacts > 0 and r.metrics["contacts"] == 0
     q = np.load(tmp_path / "trajectory.npz")["q"]
     deepest = max(np.linalg.norm(_backbone_world(world, qk) - _backbone_world(world, q[0]), axis=1).max()
                   for qk in q)
