@@ -853,7 +853,7 @@ def _job(spec: TrialSpec, run: _Run) -> TrialJob | str:
         try:
             json.loads(text.lstrip("\ufeff"))
         except json.JSONDecodeError as exc:
-            return f"{path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}"
+            return f"{path}: invalid JSON: {exc.msg} (line {exc.lineno}, column {exc.colno})"
         except RecursionError:
             return f"{path}: invalid JSON: nested too deeply"
         except ValueError as exc:  # an integer of more than 4300 digits (sys.get_int_max_str_digits)

@@ -1256,7 +1256,7 @@ def load_world(path: str | os.PathLike[str], *, allow_mesh_outside: bool = False
     try:
         data = json.loads(text, parse_constant=_NonFinite, object_pairs_hook=_pairs_hook)
     except json.JSONDecodeError as e:
-        raise ctx.error("", f"invalid JSON at line {e.lineno}, column {e.colno}: {e.msg}") from e
+        raise ctx.error("", f"invalid JSON: {e.msg} (line {e.lineno}, column {e.colno})") from e
     except RecursionError as e:
         raise ctx.error("", "invalid JSON: nested too deeply") from e
     except ValueError as e:  # e.g. an integer of more than 4300 digits (sys.get_int_max_str_digits)

@@ -408,7 +408,7 @@ def test_malformed_world_file_is_an_error_line_and_the_sweep_goes_on(tmp_path, c
     recs = {r["world_id"]: r for r in lines_of(tmp_path / "out" / "results.jsonl")}
     assert set(recs) == {"bad", "list", "w00", "w01"}
     assert (recs["bad"]["reason"], recs["bad"]["success"]) == ("error", False)
-    assert recs["bad"]["error"] == f"{bad}: invalid JSON at line 2 column 12: Expecting value"
+    assert recs["bad"]["error"] == f"{bad}: invalid JSON: Expecting value (line 2, column 12)"
     assert recs["list"]["reason"] == "error"  # not a world object: the runner's error, like any schema error
     assert recs["w00"]["reason"] in ("reached", "collision") and recs["w01"]["reason"] in ("reached", "collision")
     assert "2 of them errors" in capsys.readouterr().out

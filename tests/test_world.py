@@ -562,6 +562,16 @@ def test_huge_integer_is_a_world_error(tmp_path):
         load_world(f)
 
 
+def test_truncated_file_says_what_and_where(tmp_path):
+    """A file cut off inside a string (an outside user's broken file, worlds/hard5/bad/truncated.json): the
+    message reads as a sentence, with the line and column where the string starts."""
+    f = tmp_path / "cut.json"
+    f.write_text('{"format": "navstack-world/1",\n "name": "cut')
+    with pytest.raises(WorldError, match=r"cut\.json: \(top level\): invalid JSON: Unterminated string starting at "
+                                         r"\(line 2, column 10\)$"):
+        load_world(f)
+
+
 # ---------------------------------------------------------------------------- moving obstacles (section 2b)
 
 MOVING = [
