@@ -15,7 +15,9 @@ Per control step (``ServoConfig.control_hz``, default 30 Hz):
 4. the slithering controller (equation 4) integrates ``theta_d``,
 5. the servo tracks ``theta_d`` for one control period,
 6. metrics: clearance and contact of the measured robot against the obstacles,
-   commanded-vs-actual tip error, serpentine deviation from the recorded path.
+   commanded-vs-actual tip error, serpentine deviation from the recorded path;
+   and the robot against itself (:mod:`navstack.self_contact`: touching itself
+   makes the trial a ``collision``, ``contacts`` still counting obstacles only).
 
 Contact is *detected*, not simulated: the obstacles do not push the robot
 (PyBullet collision response between robot and obstacles is off), so a
