@@ -59,7 +59,7 @@ def _summary(result) -> str:
         f"{m['slither_deviation_max'] * 1e3:.3f} mm, min_clearance {_mm(m['min_clearance'])}, "
         f"contacts {m['contacts']}"
         + (f"\n  the robot touched itself in {result.self_contacts} control steps (least distance "
-           f"{result.self_clearance})" if getattr(result, "self_contacts", 0) else "")
+           f"{result.self_clearance})" if result.self_contacts else "")
     )
 
 

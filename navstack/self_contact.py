@@ -43,6 +43,13 @@ def self_pairs(radii: NDArray[np.float64],
     return i[keep].astype(np.int64), j[keep].astype(np.int64)
 
 
+def pair_frames(radii: NDArray[np.float64], pairs: tuple[NDArray[np.int64], NDArray[np.int64]],
+                k: int) -> tuple[int, int]:
+    """The DH frames whose capsules make pair ``k`` of ``pairs`` (:func:`self_pairs` of the same ``radii``)."""
+    frames = np.flatnonzero(np.asarray(radii, dtype=np.float64).reshape(-1) > 0.0) + 1
+    return int(frames[pairs[0][k]]), int(frames[pairs[1][k]])
+
+
 @kernel
 def _segment_distance(p0, p1, q0, q1):  # pragma: no cover - compiled
     """The least distance [m] between the segments ``p0``-``p1`` and ``q0``-``q1`` (3-vectors each), exact for

@@ -52,7 +52,7 @@ import numpy as np
 from navstack.jpl import BACKBONE_FRAMES, jpl_serpentine
 from navstack.planner.field import FieldPlannerConfig
 from navstack.planner.reactive import PlannerConfig
-from navstack.self_contact import self_clearance, self_pairs
+from navstack.self_contact import pair_frames, self_clearance, self_pairs
 from navstack.sensing import SensorConfig
 from navstack.sim.servo import ServoConfig
 from navstack.validate import instance, positive
@@ -502,7 +502,7 @@ class _Simulation:
         self.contacts = 0
         self.self_pairs = self_pairs(self.body.link_radii)  # the robot's own capsules (navstack.self_contact)
         self.self_contacts = 0
-        self.self_clearance = (np.inf, "")  # the least [m], and between which links
+        self.self_clearance = (np.inf, -1)  # the least [m], and the pair of self_pairs where
         self.pinned_time = 0.0
         self.tip_des = tip0.copy()
         self.tip_des_reverse = False
@@ -558,9 +558,7 @@ class _Simulation:
         if gap <= 0.0:
             self.self_contacts += 1
         if gap < self.self_clearance[0]:
-            frames = np.flatnonzero(self.body.link_radii > 0.0) + 1
-            self.self_clearance = (gap, f"the capsules of DH frames {frames[self.self_pairs[0][k]]} and "
-                                        f"{frames[self.self_pairs[1][k]]}")
+            self.self_clearance = (gap, k)
 
     def _ended(self, reason: str) -> str:
         """``reason``, unless the robot touched an obstacle or itself on the way: then ``collision``."""
@@ -700,9 +698,16 @@ class _Simulation:
             error=error,
             retracted=bool(self.retracted) if self.world.retract else None,
             self_contacts=int(self.self_contacts),
-            self_clearance=(f"{self.self_clearance[0] * 1e3:.1f} mm between {self.self_clearance[1]}"
-                            if np.isfinite(self.self_clearance[0]) else ""),
+            self_clearance=self._self_clearance_text(),
         )
+
+    def _self_clearance_text(self) -> str:
+        """``TrialResult.self_clearance``: the robot's least distance to itself and between which capsules."""
+        gap, k = self.self_clearance
+        if k < 0:
+            return ""
+        a, b = pair_frames(self.body.link_radii, self.self_pairs, k)
+        return f"{gap * 1e3:.1f} mm between the capsules of DH frames {a} and {b}"
 
     def _reported_clearance(self, reason: str) -> float | None:
         """``min_clearance`` [m] for ``result.json``: None when unknown (no obstacle; never measured; a trial
