@@ -33,7 +33,10 @@ per obstacle for comparison.
 PyBullet limitations found (pybullet 3.2.7):
 
 * a triangle mesh is a surface: a robot part entirely *inside* a closed mesh reports the (positive)
-  distance to the nearest triangle, not a penetration (the start check asks :mod:`navstack.sim.mesh_inside`);
+  distance to the nearest triangle, not a penetration (the start check asks :mod:`navstack.sim.mesh_inside`),
+  and a part pushed into one the depth below the facets it touches, not below the surface: a mesh read within
+  :data:`MARGIN` of a contact, and a closed mesh once penetrated, are measured exactly
+  (:mod:`navstack.sim.mesh_depth`, in :meth:`Scene.clearance`);
 * ``createCollisionShapeArray`` keeps at most 16 children and silently drops the rest, and
   ``createVisualShapeArray`` with more than 16 crashed the process, hence the chunking;
 * collision shapes ask for a cylinder's ``height``, visual shapes for its ``length``;
@@ -64,6 +67,7 @@ from scipy.spatial.transform import Rotation
 
 from navstack.sim._bullet import pybullet as p
 from navstack.sim.exact_distance import MARGIN, ROW, member_distances, primitive_row
+from navstack.sim.mesh_depth import MeshContacts
 from navstack.sim.mover_sweep import MoverSweeps
 from navstack.world import Box, Cylinder, Mesh, Motion, Obstacle, Sphere, World, WorldError
 
@@ -219,6 +223,9 @@ class Scene(MoverSweeps):
     _capsule_robots: dict[int, bool] = field(default_factory=dict, init=False, compare=False, repr=False)
     """robot body -> whether every collision shape it has is a capsule or a sphere (:meth:`_all_capsules`)."""
     _large: frozenset[int] = field(default=frozenset(), init=False, compare=False, repr=False)
+    _meshes: MeshContacts = field(default_factory=lambda: MeshContacts({}, MARGIN), init=False, compare=False,
+                                  repr=False)
+    """The mesh bodies, measured exactly near a contact and once entered (:mod:`navstack.sim.mesh_depth`)."""
     """The bodies holding a primitive larger than :data:`LARGE_EXTENT`, which :meth:`clearance` always measures
     exactly."""
 
@@ -273,6 +280,8 @@ class Scene(MoverSweeps):
         scene._primitives = {b: np.array(m, dtype=np.int64) for b, m in members.items()}
         scene._thin_slack = THIN_SLACK if any(_thinner_than_margin(o) for o in world.obstacles) else 0.0
         scene._large = frozenset(body_of[i] for i, o in enumerate(world.obstacles) if _larger_than(o, LARGE_EXTENT))
+        scene._meshes = MeshContacts({body_of[i]: o for i, o in enumerate(world.obstacles) if isinstance(o, Mesh)},
+                                     MARGIN)
         scene.update(0.0)
         return scene
 
@@ -303,8 +312,8 @@ class Scene(MoverSweeps):
         A compound body that touches is resolved child by child with temporary bodies, so each obstacle
         is named on its own; every primitive within :data:`MARGIN` of a link is measured exactly too, so a
         contact PyBullet's rounded corners hide is named, and a primitive's depth is the exact one (as in
-        :meth:`clearance`; a mesh's is PyBullet's).  As everywhere, a robot part inside a closed mesh is
-        not seen (module doc; :mod:`navstack.sim.mesh_inside` tells the start check).
+        :meth:`clearance`; a mesh's is PyBullet's here).  Here a robot part inside a closed mesh is not seen (module
+        doc; :mod:`navstack.sim.mesh_inside` tells the start check, which is what calls this).
         """
         cl = self.client
         out: dict[int, float] = {}
@@ -349,7 +358,9 @@ class Scene(MoverSweeps):
         contact.  So when PyBullet's smallest distance is below ``max(exact_below, 0)`` + :data:`MARGIN`, every
         primitive near the robot is measured again exactly (:meth:`_sharpen`): the result is exact whenever the
         true clearance is below ``exact_below`` (m) or 0 (a contact is never hidden), and otherwise not below
-        ``exact_below``.  A trial passes its smallest clearance so far, which makes its ``min_clearance``
+        ``exact_below``.  A mesh is measured exactly likewise where PyBullet reads it within :data:`MARGIN` of a
+        contact, and at every query once the robot has been inside it (:class:`~navstack.sim.mesh_depth.
+        MeshContacts`).  A trial passes its smallest clearance so far, which makes its ``min_clearance``
         exact.  ``robot_capsules``: ``(a, b, r)``, the robot's collision capsules now (segments ``a``-``b``,
         each (K, 3) [m], radii (K,) [m]); without them they are read from PyBullet.
         """
@@ -374,20 +385,24 @@ class Scene(MoverSweeps):
         else:
             bound = [-math.inf] * len(bodies)  # no boxes: every body may be near
         prims = self._primitives
-        out = dmax
+        out, reached, meshes = dmax, dmax, {}
         for d in thresholds:
-            best, mesh = d, d  # PyBullet's smallest distance to the primitives, to the meshes
+            best, meshes = d, {}  # PyBullet's smallest distance to the primitives; to each mesh closer than d
             for b, g in zip(bodies, bound, strict=True):
                 if g < d:
                     near = min((pt[8] for pt in cl.getClosestPoints(robot_id, b, d)), default=d)
                     if len(prims[b]):
                         best = min(best, near)
-                    else:
-                        mesh = min(mesh, near)
-            if min(best, mesh) < d:
-                sharp = self._sharpen(robot_id, float(best), float(exact_below), robot_capsules, bodies, bound)
-                out = min(sharp, float(mesh))
+                    elif near < d:
+                        meshes[b] = float(near)
+            if best < d or meshes:
+                out = self._sharpen(robot_id, float(best), float(exact_below), robot_capsules, bodies, bound)
+                reached = d
                 break
+        if meshes or self._meshes.entered:  # exact near a contact, and inside a mesh entered (mesh_depth)
+            if robot_capsules is None and self._meshes.needs_capsules(meshes):
+                robot_capsules = _link_capsules(cl, robot_id, self._capsules)
+            out = min(out, self._meshes.clearance(meshes, reached, float(exact_below), robot_capsules))
         if self._large:
             out = min(out, _large_exact(self, robot_id, dmax, robot_capsules, bodies, bound))
         return out
