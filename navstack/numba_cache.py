@@ -38,9 +38,10 @@ KERNEL_SOURCES = (
     "control/tasks/__init__.py", "control/tasks/base.py", "control/tasks/limits.py", "control/tasks/posture.py",
     "control/tasks/slither.py", "control/tasks/tip.py", "estimate.py", "fused.py", "generate/geometry.py", "jit.py",
     "jpl.py", "kinematics.py", "path.py", "planner/grazing.py", "planner/map.py", "planner/opening.py",
-    "planner/potential.py", "planner/proximity.py", "planner/search.py", "sensing.py", "sim/_bullet.py",
-    "sim/body.py", "sim/exact_distance.py", "sim/lipschitz.py", "sim/mover_sweep.py", "sim/scene.py",
-    "sim/servo.py", "urdf.py", "validate.py", "world.py",
+    "planner/potential.py", "planner/proximity.py", "planner/search.py", "self_contact.py", "sensing.py",
+    "sim/_bullet.py", "sim/body.py", "sim/exact_distance.py", "sim/lipschitz.py", "sim/mesh_depth.py",
+    "sim/mesh_inside.py", "sim/mover_sweep.py", "sim/scene.py", "sim/servo.py", "urdf.py", "validate.py",
+    "world.py",
 )
 """navstack's modules with numba kernels and every navstack module they import, transitively (paths relative
 to the package)."""

@@ -136,6 +136,18 @@ def test_the_scene_reads_a_penetrations_true_depth_and_a_link_wholly_inside_a_me
     assert scene.clearance(probe, exact_below=0.5) == pytest.approx(0.03, abs=1e-6)
 
 
+def test_a_robot_with_shapes_the_exact_measure_does_not_know_keeps_pybullets_contact_with_a_mesh(client, cube):
+    """A robot part that is no capsule (a box) pushed 10 mm into the closed box mesh: the exact measure knows only
+    capsules, so PyBullet's reading of the contact stands (it must not be hidden)."""
+    scene = Scene.build(client, World(name="t", robot=RobotSpec(), obstacles=(cube,), goals=(Goal([0.0, 0.0, 3.0]),)))
+    rot = Rotation.from_euler("xyz", RPY)
+    shape = client.createCollisionShape(p.GEOM_BOX, halfExtents=[0.03, 0.03, 0.03])
+    centre = POSITION + rot.apply([HALF[0] + 0.03 - 0.01, 0.0, 0.0])
+    probe = client.createMultiBody(0.0, shape, -1, centre.tolist(), rot.as_quat().tolist())
+    client.performCollisionDetection()
+    assert scene.clearance(probe) == pytest.approx(-0.01, abs=1e-3)
+
+
 def test_the_icosphere_trial_reads_the_depth_and_contacts_an_outside_checker_computes():
     """``worlds/hard5/mesh_ico.json`` (5,120 triangles), scripted planner: the tip drives through the closed
     icosphere.  hard5's own checker (``verify.py``: its own kinematics, exact point-triangle distances, a sign

@@ -292,11 +292,14 @@ class MeshContacts:
         return self._depth[body]
 
     def clearance(self, near: dict[int, float], reached: float, exact_below: float,
-                  capsules: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None) -> float:
+                  capsules: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None,
+                  all_capsules: bool = True) -> float:
         """The least signed distance [m] to the meshes: ``near`` holds PyBullet's reading of each mesh body it
         found closer than ``reached`` [m] (the threshold of that query; the others are at least that far).
         Exact when below ``exact_below`` [m], and a contact (at most 0) exactly when there is one.  ``capsules``:
-        the robot's ``(a, b, r)`` now; None when no mesh needs it (then only PyBullet's readings are used)."""
+        the robot's ``(a, b, r)`` now; None when no mesh needs it (then only PyBullet's readings are used).
+        ``all_capsules``: whether they are every collision shape the robot has; if not, PyBullet's reading (which
+        sees the other shapes too) is kept wherever it is lower, so no contact of theirs is hidden."""
         todo = [b for b, v in near.items() if v <= self._margin or b in self.entered]
         todo += [b for b in self.entered if b not in near]
         if not todo or capsules is None:
@@ -310,7 +313,10 @@ class MeshContacts:
             if e <= 0.0 and measure.closed:
                 self.entered.add(b)
             v = near.get(b, reached)  # clear and above the floor: PyBullet's reading stands, unless it is a contact
-            values.append(e if e <= floor or v <= 0.0 else v)
+            if not all_capsules:
+                values.append(min(e, v))
+            else:
+                values.append(e if e <= floor or v <= 0.0 else v)
         return min(values, default=reached)
 
     def needs_capsules(self, near: dict[int, float]) -> bool:

@@ -402,7 +402,8 @@ class Scene(MoverSweeps):
         if meshes or self._meshes.entered:  # exact near a contact, and inside a mesh entered (mesh_depth)
             if robot_capsules is None and self._meshes.needs_capsules(meshes):
                 robot_capsules = _link_capsules(cl, robot_id, self._capsules)
-            out = min(out, self._meshes.clearance(meshes, reached, float(exact_below), robot_capsules))
+            out = min(out, self._meshes.clearance(meshes, reached, float(exact_below), robot_capsules,
+                                                  self._all_capsules(robot_id)))
         if self._large:
             out = min(out, _large_exact(self, robot_id, dmax, robot_capsules, bodies, bound))
         return out
