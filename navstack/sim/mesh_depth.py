@@ -212,17 +212,24 @@ class MeshDepth:
         lo, hi = np.minimum(a, b), np.maximum(a, b)
         return float(np.linalg.norm(np.maximum(self.lo - hi, 0.0) + np.maximum(lo - self.hi, 0.0)))
 
-    def capsule_clearance(self, a: ArrayLike, b: ArrayLike, r: float, floor: float = -math.inf) -> float:
+    def capsule_clearance(self, a: ArrayLike, b: ArrayLike, r: float, floor: float = -math.inf,
+                          apart: bool = False) -> float:
         """The signed distance [m] between the capsule ``a``-``b`` (world [m]), radius ``r`` [m], and the mesh.
 
         Exact (to :data:`TOLERANCE`) when it is below ``floor`` [m]; otherwise not below ``floor``, and at most 0
         exactly when the true one is (a contact is never hidden nor made up): the depth inside is searched only
         while it could go below ``floor``.  A capsule whose segment lies outside the mesh's box gets a lower bound
-        (its distance to the box less ``r``) when that is above both ``floor`` and 0."""
+        (its distance to the box less ``r``) when that is above both ``floor`` and 0.  ``apart``: the capsule is
+        known not to touch the surface (PyBullet reads it clear), so it lies wholly inside or wholly outside:
+        inside, its depth as above; outside, +inf (nothing to add to PyBullet's own reading)."""
         A, B = self.local(a), self.local(b)
         bound = self.box_gap(A, B) - r
         if bound > max(floor, 0.0):
             return bound  # the segment is outside the box: no inside to reach, farther than both
+        if apart:
+            if not (self.closed and self.inside(0.5 * (A + B))):
+                return math.inf
+            return -self._deepest(A, B, -(floor + r)) - r
         cuts = [0.0, 1.0]
         if self.closed:
             cuts = sorted(cuts + self._hits[: _crossings(A, B, self._tri, self._hits)].tolist())
@@ -308,8 +315,9 @@ class MeshContacts:
         floor = max(exact_below, 0.0)
         for b in todo:
             measure = self.depth(b)
-            e = min((measure.capsule_clearance(a, c, float(r), exact_below) for a, c, r in zip(*capsules, strict=True)),
-                    default=math.inf)
+            apart = near.get(b, reached) > self._margin  # an entered mesh PyBullet reads clear: inside or outside
+            e = min((measure.capsule_clearance(a, c, float(r), exact_below, apart)
+                     for a, c, r in zip(*capsules, strict=True)), default=math.inf)
             if e <= 0.0 and measure.closed:
                 self.entered.add(b)
             v = near.get(b, reached)  # clear and above the floor: PyBullet's reading stands, unless it is a contact
