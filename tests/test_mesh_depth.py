@@ -90,6 +90,36 @@ def test_an_open_sheet_has_no_inside_a_capsule_through_it_reads_minus_its_radius
     assert off_edge == pytest.approx(0.17, abs=2 * TOLERANCE)
 
 
+def test_a_triangle_of_no_area_and_a_crack_narrower_than_the_weld_are_measured_right(tmp_path):
+    """A review's cases.  A triangle with two equal corners (exporters write them) made Ericson's closest point
+    divide 0 by 0 (ZeroDivisionError, a trial's error); a box whose +x face is shifted 2 um off its edges is closed
+    for mesh_inside (welded), but an axis entering through that crack was not cut there, so its depth read 212 mm
+    short (and +0.35 um, clear, with r = 0)."""
+    box = trimesh.creation.box(extents=[2.0, 2.0, 2.0])
+    sliver = trimesh.Trimesh(np.vstack([box.vertices, [[0.2, 0.1, 1.0], [0.6, -0.3, 1.0]]]),
+                             np.vstack([box.faces, [[8, 8, 9]]]), process=False)
+    sliver.export(tmp_path / "sliver.stl")
+    depth = MeshDepth(Mesh(path=tmp_path / "sliver.stl", position=[0.0, 0.0, 0.0], rpy=[0.0, 0.0, 0.0]))
+    plain = Box(center=[0.0, 0.0, 0.0], half_extents=[1.0, 1.0, 1.0], rpy=[0.0, 0.0, 0.0])
+    for a, b in (([0.0, 0.0, 0.5], [0.3, 0.0, 0.5]), ([0.0, 0.0, 1.3], [0.3, 0.0, 1.3])):
+        true = float(capsule_distance(plain, np.array([a]), np.array([b]), np.array([0.025]))[0])
+        for floor in (math.inf, 0.0):
+            got = depth.capsule_clearance(a, b, 0.025, floor)
+            assert got == pytest.approx(true, abs=2 * TOLERANCE) if floor == math.inf else (got <= 0) == (true <= 0)
+    soup = box.vertices[box.faces].copy()
+    on_x = np.all(np.isclose(soup[:, :, 0], 1.0), axis=1)
+    soup[on_x, :, 0] += 2e-6
+    trimesh.Trimesh(soup.reshape(-1, 3), np.arange(len(soup) * 3).reshape(-1, 3), process=False).export(
+        tmp_path / "crack.stl")
+    depth = MeshDepth(Mesh(path=tmp_path / "crack.stl", position=[0.0, 0.0, 0.0], rpy=[0.0, 0.0, 0.0]))
+    assert depth.closed
+    P, d = np.array([1.0 + 1e-6, 0.0, 1.0 + 0.5e-6]), np.array([1.0, 0.0, 1.0]) / math.sqrt(2.0)
+    a, b = P + 2.0 * d, P - 0.3 * d
+    for r in (0.025, 0.0):
+        true = float(capsule_distance(plain, a[None], b[None], np.array([r]))[0])
+        assert depth.capsule_clearance(a, b, r, math.inf) == pytest.approx(true, abs=1e-5), r
+
+
 @pytest.fixture
 def client():
     c = bullet_client.BulletClient(connection_mode=p.DIRECT)

@@ -184,7 +184,12 @@ class MeshDepth:
         vertices, faces = mesh.triangles()
         self._R = Rotation.from_euler("xyz", mesh.rpy).as_matrix()  # as the scene places it
         self._position = np.asarray(mesh.position, dtype=np.float64)
-        self._tri = np.ascontiguousarray(np.asarray(vertices, dtype=np.float64)[np.asarray(faces, dtype=np.int64)])
+        tri = np.asarray(vertices, dtype=np.float64)[np.asarray(faces, dtype=np.int64)]
+        twice_area = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+        scale = max(float(np.ptp(vertices, axis=0).max()), 1e-300)
+        # a triangle of no area (corners that coincide or lie on a line) is a segment on its neighbours' edges:
+        # left out (Ericson's closest point divides by its edge terms, 0/0 for two equal corners)
+        self._tri = np.ascontiguousarray(tri[twice_area > 1e-12 * scale * scale])
         self._centre = self._tri.mean(axis=1)
         self._radius = np.linalg.norm(self._tri - self._centre[:, None, :], axis=2).max(axis=1)
         self.lo, self.hi = vertices.min(axis=0), vertices.max(axis=0)
@@ -192,7 +197,11 @@ class MeshDepth:
         self._depths = nesting(self._parts)
         self._part_tri = [np.ascontiguousarray(v[f]) for v, f in self._parts]
         self.closed = bool(self._parts)
-        self._hits = np.empty(len(self._tri))
+        # the axis is cut where it crosses the file's triangles and the welded ones (mesh_inside.solids decides
+        # inside on welded vertices: a crack narrower than WELD is closed there, and a piece entering through it
+        # must be cut too); a cut too many only splits a piece
+        self._cut_tri = np.ascontiguousarray(np.concatenate([self._tri] + [v[f] for v, f in self._parts]))
+        self._hits = np.empty(len(self._cut_tri))
         self._hit = np.empty(1)
 
     def local(self, points: ArrayLike) -> NDArray[np.float64]:
@@ -232,7 +241,7 @@ class MeshDepth:
             return -self._deepest(A, B, -(floor + r)) - r
         cuts = [0.0, 1.0]
         if self.closed:
-            cuts = sorted(cuts + self._hits[: _crossings(A, B, self._tri, self._hits)].tolist())
+            cuts = sorted(cuts + self._hits[: _crossings(A, B, self._cut_tri, self._hits)].tolist())
         best = math.inf
         for t0, t1 in zip(cuts[:-1], cuts[1:], strict=True):
             if t1 - t0 <= 1e-12 and len(cuts) > 2:
