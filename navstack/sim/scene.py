@@ -223,11 +223,11 @@ class Scene(MoverSweeps):
     _capsule_robots: dict[int, bool] = field(default_factory=dict, init=False, compare=False, repr=False)
     """robot body -> whether every collision shape it has is a capsule or a sphere (:meth:`_all_capsules`)."""
     _large: frozenset[int] = field(default=frozenset(), init=False, compare=False, repr=False)
+    """The bodies holding a primitive larger than :data:`LARGE_EXTENT`, which :meth:`clearance` always measures
+    exactly."""
     _meshes: MeshContacts = field(default_factory=lambda: MeshContacts({}, MARGIN), init=False, compare=False,
                                   repr=False)
     """The mesh bodies, measured exactly near a contact and once entered (:mod:`navstack.sim.mesh_depth`)."""
-    """The bodies holding a primitive larger than :data:`LARGE_EXTENT`, which :meth:`clearance` always measures
-    exactly."""
 
     @classmethod
     def build(cls, client: Any, world: World, options: SceneOptions | None = None) -> Scene:
