@@ -34,10 +34,11 @@ from navstack.self_contact import _segment_distance
 from navstack.sim.mesh_inside import nesting, solids
 from navstack.world import Mesh
 
-__all__ = ["TOLERANCE", "MeshDepth"]
+__all__ = ["TOLERANCE", "MeshContacts", "MeshDepth"]
 
 TOLERANCE = 1e-7
-"""m: the least signed distance along a capsule's axis is found to within this (Piyavskii's bound)."""
+"""m: the depth inside a closed mesh is found to within this (the branch and bound's stop); outside, the distance is
+exact (closed form)."""
 
 
 @numba.njit(cache=True)
@@ -100,10 +101,10 @@ def _segment_mesh(p0, p1, tri, centre, radius, hit):  # pragma: no cover - jitte
     (``hit``, a (1,) scratch array), else the least of its ends against each triangle and of it against each
     triangle's edges (Ericson 5.1.9); a triangle whose bounding ball lies farther than the best so far is skipped."""
     best = np.inf
+    dx, dy, dz = p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]
+    dd = dx * dx + dy * dy + dz * dz
     for f in range(tri.shape[0]):
         cx, cy, cz = centre[f, 0] - p0[0], centre[f, 1] - p0[1], centre[f, 2] - p0[2]
-        dx, dy, dz = p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]
-        dd = dx * dx + dy * dy + dz * dz
         t = 0.0 if dd <= 0.0 else min(max((cx * dx + cy * dy + cz * dz) / dd, 0.0), 1.0)
         ex, ey, ez = cx - t * dx, cy - t * dy, cz - t * dz
         if math.sqrt(ex * ex + ey * ey + ez * ez) - radius[f] >= best:
@@ -324,13 +325,12 @@ class MeshContacts:
         floor = max(exact_below, 0.0)
         for b in todo:
             measure = self.depth(b)
-            apart = near.get(b, reached) > self._margin  # an entered mesh PyBullet reads clear: inside or outside
-            e = min((measure.capsule_clearance(a, c, float(r), exact_below, apart)
+            v = near.get(b, reached)  # PyBullet's reading; above its margin, each capsule is inside or outside
+            e = min((measure.capsule_clearance(a, c, float(r), exact_below, v > self._margin)
                      for a, c, r in zip(*capsules, strict=True)), default=math.inf)
             if e <= 0.0 and measure.closed:
                 self.entered.add(b)
-            v = near.get(b, reached)  # clear and above the floor: PyBullet's reading stands, unless it is a contact
-            if not all_capsules:
+            if not all_capsules:  # clear and above the floor: PyBullet's reading stands, unless it is a contact
                 values.append(min(e, v))
             else:
                 values.append(e if e <= floor or v <= 0.0 else v)
