@@ -13,6 +13,7 @@ from _worlds import BASE_POSITION, TIP, world_data
 from scipy.spatial.transform import Rotation
 
 from navstack.cli import main
+from navstack.sim.mesh_depth import MeshDepth
 from navstack.sim.mesh_inside import WELD, is_closed, points_inside, solids, welded, winding_numbers
 from navstack.trial import check_start
 from navstack.world import Mesh, WorldError, load_world
@@ -206,6 +207,108 @@ def test_a_closed_part_beside_an_open_one_still_has_its_inside(tmp_path):
     assert not is_closed(both.vertices, both.faces) and len(solids(both.vertices, both.faces)) == 1
     mesh = Mesh(path=tmp_path / "mixed.stl", position=np.zeros(3), rpy=np.zeros(3), scale=1.0)
     assert points_inside(mesh, np.array([[0.0, 0, 0], [3.0, 0, 0]])).tolist() == [True, False]
+
+
+def _cube(lo, hi, other_diagonal: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """The box ``lo``..``hi`` [m] as 8 corners and 12 triangles facing out, each square face cut along the
+    diagonal from its lowest corner (least x + y + z) or (``other_diagonal``) the other."""
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    corners = np.array([[(hi if i >> k & 1 else lo)[k] for k in range(3)] for i in range(8)])
+    faces = []
+    for axis in range(3):
+        u, w = [k for k in range(3) if k != axis]
+        for side in (0, 1):
+            quad = [i for i in range(8) if (i >> axis & 1) == side]  # 4 corners, ordered round the square:
+            quad = [quad[0], quad[1], quad[3], quad[2]] if u < w else quad
+            c = corners[quad]
+            if np.dot(np.cross(c[1] - c[0], c[2] - c[0]), c.mean(axis=0) - corners.mean(axis=0)) < 0:
+                quad = quad[::-1]
+            first = int(np.argmin(corners[quad].sum(axis=1))) + other_diagonal  # the cut: from the lowest corner
+            a, b, cc, d = quad[first % 4:] + quad[: first % 4]
+            faces += [(a, b, cc), (a, cc, d)]
+    return corners, np.array(faces)
+
+
+def _keys(vertices, faces) -> list[tuple]:
+    """Each triangle as the set of its corners' coordinates."""
+    return [tuple(map(tuple, np.asarray(vertices)[t])) for t in np.asarray(faces)]
+
+
+def _glued(turned: bool, other_diagonal: bool) -> trimesh.Trimesh:
+    """Two unit cubes sharing the face x = 1, in one file (their edges there are in four faces); the second's
+    faces turned inward (``turned``), its shared face cut along the other diagonal (``other_diagonal``)."""
+    va, fa = _cube([0, 0, 0], [1, 1, 1])
+    vb, fb = _cube([1, 0, 0], [2, 1, 1], other_diagonal)
+    return trimesh.Trimesh(np.vstack([va, vb]), np.vstack([fa, (fb[:, ::-1] if turned else fb) + 8]), process=False)
+
+
+@pytest.mark.parametrize("turned", [False, True])
+@pytest.mark.parametrize("other_diagonal", [False, True])
+def test_solids_glued_face_to_face_have_their_inside(tmp_path, turned, other_diagonal):
+    """Two closed boxes sharing a face in one file: no edge there is in exactly two faces, so trimesh calls it
+    open, and a robot wholly inside had no contact and was not refused (a review's case, session 38)."""
+    glued = _glued(turned, other_diagonal)
+    va, fa = _cube([0, 0, 0], [1, 1, 1])
+    assert trimesh.Trimesh(va, fa).is_watertight and trimesh.Trimesh(va, fa).is_volume  # the cube is right
+    assert not trimesh.Trimesh(glued.vertices, glued.faces).is_watertight  # what trimesh alone says
+    assert is_closed(glued.vertices, glued.faces)
+    shared = {tuple(sorted(t)) for t in _keys(glued.vertices, glued.faces[:12])} & {
+        tuple(sorted(t)) for t in _keys(glued.vertices, glued.faces[12:])}
+    assert len(shared) == (0 if other_diagonal else 2)  # the shared face's triangles: twice, or cut apart
+    if not (turned and shared):  # there the shared triangles repeat the same way round, as an STL's repeats do
+        assert is_closed(glued.vertices, np.vstack([glued.faces, glued.faces[[3, 20]]]))  # an STL's repeats too
+    mesh = Mesh(path=tmp_path / "glued.obj", position=np.zeros(3), rpy=np.zeros(3), scale=1.0)
+    glued.export(mesh.path)
+    points = RNG.uniform([-0.5, -0.5, -0.5], [2.5, 1.5, 1.5], size=(300, 3))
+    points = points[np.abs(points[:, 0] - 1.0) > 1e-3]  # not on the shared face
+    expected = np.all((points > [0, 0, 0]) & (points < [2, 1, 1]), axis=1)
+    np.testing.assert_array_equal(points_inside(mesh, points), expected)
+    assert expected.sum() > 30 and (~expected).sum() > 30
+    depth = MeshDepth(mesh)  # a link wholly inside the second box: 0.5 m from its walls at its middle
+    assert depth.closed and depth.capsule_clearance([1.3, 0.5, 0.5], [1.7, 0.5, 0.5], 0.05, 0.0, True) == \
+        pytest.approx(-0.55, abs=1e-6)
+    big = trimesh.Trimesh(8.0 * glued.vertices - [12.0, 4.0, 4.0], glued.faces, process=False)  # glued at x -4
+    with pytest.raises(WorldError, match="is inside this mesh"):
+        check_start(load_world(_block_world(tmp_path, big, BASE_POSITION)))
+
+
+def test_a_closed_box_with_t_junctions_has_its_inside(tmp_path):
+    """A box whose top is cut finer than its sides (a vertex on another triangle's edge: a CAD export's
+    neighbouring faces tessellated apart), and an icosphere with every third triangle cut: open to trimesh,
+    closed to the winding number.  A robot inside was not refused."""
+    box = trimesh.creation.box(extents=[2.0, 1.0, 0.5])
+    v, f = trimesh.remesh.subdivide(box.vertices, box.faces, face_index=np.flatnonzero(box.face_normals[:, 2] > 0.5))
+    ball = trimesh.creation.icosphere(subdivisions=3)
+    bv, bf = trimesh.remesh.subdivide(ball.vertices, ball.faces, face_index=np.arange(0, len(ball.faces), 3))
+    for vertices, faces in ((v, f), (bv, bf)):
+        assert not trimesh.Trimesh(vertices, faces).is_watertight and is_closed(vertices, faces)
+    points = RNG.uniform(-1.2, 1.2, size=(400, 3))
+    in_box = np.all(np.abs(points) < [1.0, 0.5, 0.25], axis=1)
+    w_box = sum(winding_numbers(*part, points) for part in solids(v, f))
+    np.testing.assert_allclose(np.abs(w_box), in_box.astype(float), atol=1e-9)
+    r = np.linalg.norm(points, axis=1)
+    keep = np.abs(r - 1.0) > 0.02  # the icosphere is within 1.3 % of the unit sphere
+    w_ball = sum(winding_numbers(*part, points[keep]) for part in solids(bv, bf))
+    np.testing.assert_allclose(np.abs(w_ball), (r[keep] < 1.0).astype(float), atol=1e-9)
+    block = trimesh.Trimesh(v * [3.0, 6.0, 12.0], f, process=False)  # 6 m each way
+    with pytest.raises(WorldError, match="is inside this mesh"):
+        check_start(load_world(_block_world(tmp_path, block, BASE_POSITION)))
+
+
+def test_glued_or_t_junction_surfaces_with_a_hole_stay_open():
+    """Mending closes only what is closed: with a triangle taken out of either glued box or of the T-junction
+    box, or a stray triangle across the inside, the holed box holds nothing (the other glued box may)."""
+    box = trimesh.creation.box(extents=[2.0, 1.0, 0.5])
+    v, f = trimesh.remesh.subdivide(box.vertices, box.faces, face_index=np.flatnonzero(box.face_normals[:, 2] > 0.5))
+    cases = [(v, np.delete(f, k, axis=0), [0.0, 0.0, 0.0]) for k in (0, 7, len(f) - 1)]
+    for other_diagonal in (False, True):
+        glued = _glued(False, other_diagonal)
+        cases += [(glued.vertices, np.delete(glued.faces, k, axis=0), [0.5 + k // 12, 0.5, 0.5])
+                  for k in (0, 5, 13, 23)]
+        cases.append((glued.vertices, np.vstack([glued.faces, [[0, 3, 7]]]), [0.5, 0.5, 0.5]))  # across a's inside
+    for vertices, faces, centre in cases:
+        assert not is_closed(vertices, faces)
+        assert all(abs(winding_numbers(*part, [centre])[0]) < 0.5 for part in solids(vertices, faces))
 
 
 def _cracked(mesh: trimesh.Trimesh, crack: float, seed: int = 3) -> trimesh.Trimesh:

@@ -5,18 +5,18 @@ reports a positive distance to its nearest triangle and no contact: a trial coul
 call itself a success.  The start check (:func:`navstack.trial.check_start`) asks this module instead.
 
 A point's winding number with respect to a closed triangle mesh is the sum of the solid angles its triangles
-subtend at the point over 4 pi: +-1 inside (the sign is the faces' orientation), 0 outside, whatever the
-mesh's shape (Jacobson, Kavan and Sorkine-Hornung, "Robust inside-outside segmentation using generalized
-winding numbers", SIGGRAPH 2013).  Each triangle's solid angle is Van Oosterom and Strackee's closed form
-(IEEE Trans. Biomed. Eng. 1983).  Only *closed* meshes (every edge shared by exactly two faces, trimesh's
-``is_watertight``, once vertices nearer than :data:`WELD` are welded and repeated triangles dropped) have an
-inside; an open surface has none and is never
-said to contain a point.  Each connected part is taken on its own, its faces' orientations made
-consistent first (:func:`solids`).  Parts that overlap are one solid (their union), whatever their faces'
-orientation; a part wholly inside another is a cavity in it (a tank's or a room's inner wall: the robot
-stands in the cavity, not in the wall), a part inside that a solid again, and so on (:func:`nesting`): a
-point is inside if the innermost closed part holding it lies inside an even number of others.  Points on
-the surface itself are not meaningful here: the caller has already refused any contact with it.
+subtend at the point over 4 pi: +-1 inside (the sign is the faces' orientation), 0 outside, whatever the mesh's
+shape (Jacobson, Kavan and Sorkine-Hornung, "Robust inside-outside segmentation using generalized winding
+numbers", SIGGRAPH 2013). Each triangle's solid angle is Van Oosterom and Strackee's closed form (IEEE Trans.
+Biomed. Eng. 1983). Only *closed* meshes (every edge shared by exactly two faces, trimesh's ``is_watertight``,
+once vertices nearer than :data:`WELD` are welded and repeated triangles dropped; or, failing that, every edge
+run as often one way as the other once T-junctions are split: :func:`mended`) have an inside; an open surface
+has none and is never said to contain a point. Each connected part is taken on its own, its faces' orientations
+made consistent first (:func:`solids`). Parts that overlap are one solid (their union), whatever their faces'
+orientation; a part wholly inside another is a cavity in it (a tank's or a room's inner wall: the robot stands
+in the cavity, not in the wall), a part inside that a solid again, and so on (:func:`nesting`): a point is
+inside if the innermost closed part holding it lies inside an even number of others. Points on the surface
+itself are not meaningful here: the caller has already refused any contact with it.
 """
 
 from __future__ import annotations
@@ -80,18 +80,129 @@ def solids(vertices: ArrayLike, faces: ArrayLike) -> list[tuple[NDArray[np.float
     neighbours
     (``trimesh.repair.fix_winding``).  A winding number sums the faces' signed solid angles, so a closed box
     with every other face turned has 0 everywhere, and two overlapping closed parts turned opposite ways
-    cancel where they overlap: a robot inside either looked outside.  Parts that are not closed have no
-    inside and are left out."""
+    cancel where they overlap: a robot inside either looked outside.  The parts left are mended where they
+    can be (:func:`mended`: solids glued face to face, T-junctions); what stays open has no inside and is
+    left out."""
+    return _solids(vertices, faces)[0]
+
+
+def _solids(vertices: ArrayLike, faces: ArrayLike) -> tuple[list[tuple[NDArray[np.float64], NDArray[np.int64]]],
+                                                             bool]:
+    """:func:`solids`, and whether some of the surface is left open."""
     import trimesh  # slow to import: only mesh worlds need it
 
-    mesh = trimesh.Trimesh(*welded(vertices, faces), process=True)
+    v, f = welded(vertices, faces)
+    mesh = trimesh.Trimesh(v, f, process=True)
     mesh.update_faces(mesh.unique_faces())
-    out = []
+    out, rest = [], []
     for part in mesh.split(only_watertight=False, repair=False):  # repair=True would fill holes
         if part.is_watertight:
             if not part.is_winding_consistent:
                 trimesh.repair.fix_winding(part)
             out.append((np.asarray(part.vertices, dtype=np.float64), np.asarray(part.faces, dtype=np.int64)))
+        else:
+            rest.append(part)
+    if not rest:
+        return out, False
+    taken = np.isin(_keys(v, f), np.concatenate([_keys(part.vertices, part.faces) for part in rest]))
+    more, left_open = mended(v, f[taken])
+    return out + more, left_open
+
+
+def _keys(vertices: ArrayLike, faces: ArrayLike) -> NDArray[np.void]:
+    """Each triangle as its corners' coordinates, sorted (one key whatever its corners' order or numbering)."""
+    tri = np.asarray(vertices, dtype=np.float64)[np.asarray(faces, dtype=np.int64)]  # (F, 3, 3)
+    tri = tri[np.arange(len(tri))[:, None], np.lexsort(tri.transpose(2, 0, 1)[::-1], axis=-1)]
+    return np.ascontiguousarray(tri.reshape(len(tri), 9)).view(np.dtype((np.void, 72))).ravel()
+
+
+def mended(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> tuple[
+        list[tuple[NDArray[np.float64], NDArray[np.int64]]], bool]:
+    """The solids in surface parts that are not closed as trimesh sees them (an edge in other than two faces), and
+    whether some of it stays open.
+
+    Two things close a surface to the winding number though not to trimesh: solids glued face to face (two
+    boxes sharing a face: its edges are in four faces, the shared triangles twice, or in two triangulations),
+    and T-junctions (a vertex on another triangle's edge: a CAD export's neighbouring faces tessellated apart).
+    Triangles are split at the vertices lying on their edges (:func:`split_t_junctions`); then a connected part
+    whose directed edges balance (each edge run as often one way as the other, the faces' own orientation
+    trusted) is a sum of closed surfaces: its winding number is a whole number everywhere off the surface, +-1
+    in each solid glued in.  Triangles repeated the same way round are tried once too (an STL's duplicates)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    f = split_t_junctions(vertices, faces)
+    n = len(vertices)
+    graph = coo_matrix((np.ones(2 * len(f)), (np.r_[f[:, 0], f[:, 1]], np.r_[f[:, 1], f[:, 2]])), shape=(n, n))
+    label = connected_components(graph, directed=False)[1][f[:, 0]]
+    out, left_open = [], False
+    for part in np.unique(label):
+        tri = f[label == part]
+        start = tri.argmin(axis=1)[:, None]  # each triangle turned to start at its least corner, same way round
+        once = np.unique(np.take_along_axis(tri, (start + np.arange(3)) % 3, axis=1), axis=0)
+        good = next((t for t in (tri, once) if _balanced(t)), None)
+        if good is None:
+            left_open = True
+            continue
+        used, compact = np.unique(good, return_inverse=True)
+        out.append((np.asarray(vertices[used], dtype=np.float64), compact.reshape(-1, 3).astype(np.int64)))
+    return out, left_open
+def _balanced(faces: NDArray[np.int64]) -> bool:
+    """Whether every edge of the triangles ``faces`` (F, 3) is run as often one way as the other."""
+    a, b = faces.ravel(), np.roll(faces, -1, axis=1).ravel()  # the directed edges a -> b
+    _, edge = np.unique(np.stack([np.minimum(a, b), np.maximum(a, b)], axis=1), axis=0, return_inverse=True)
+    return bool(np.all(np.bincount(edge.ravel(), weights=np.where(a < b, 1.0, -1.0)) == 0.0))
+
+
+def split_t_junctions(vertices: NDArray[np.float64], faces: NDArray[np.int64], rounds: int = 8
+                      ) -> NDArray[np.int64]:
+    """``faces`` (F, 3) with each triangle that has vertices of ``faces`` lying on one of its edges (within
+    :data:`WELD`, between its ends) split there: a fan from the opposite corner, the same way round.  Each round splits
+    one edge per triangle; ``rounds`` of them (a triangle has three edges; more only where splits make new
+    junctions)."""
+    from scipy.spatial import cKDTree
+
+    f = np.asarray(faces, dtype=np.int64)
+    corners = np.unique(f)
+    tree = cKDTree(vertices[corners])
+    for _ in range(rounds):
+        on = _on_edges(vertices, corners, tree, f)
+        if not on:
+            break
+        new, split = [], np.zeros(len(f), dtype=bool)
+        for k, tri in enumerate(f.tolist()):
+            for i in range(3):
+                a, b, c = tri[i], tri[(i + 1) % 3], tri[(i + 2) % 3]
+                between = on.get((a, b)) or on.get((b, a), [])[::-1]
+                if between:
+                    fan = [a, *between, b]
+                    new += [(fan[j], fan[j + 1], c) for j in range(len(fan) - 1)]
+                    split[k] = True
+                    break
+        f = np.concatenate([f[~split], np.asarray(new, dtype=np.int64).reshape(-1, 3)])
+    return f
+
+
+def _on_edges(vertices: NDArray[np.float64], corners: NDArray[np.int64], tree, faces: NDArray[np.int64]
+              ) -> dict[tuple[int, int], list[int]]:
+    """Per edge ``(a, b)`` of ``faces`` (a < b) with vertices of ``corners`` (indexed by ``tree``) within :data:`WELD`
+    of it strictly between its ends, those vertices in order from a."""
+    edges = np.unique(np.sort(np.stack([faces.ravel(), np.roll(faces, -1, axis=1).ravel()], axis=1), axis=1), axis=0)
+    pa, pb = vertices[edges[:, 0]], vertices[edges[:, 1]]
+    length = np.linalg.norm(pb - pa, axis=1)
+    mid, radius = 0.5 * (pa + pb), 0.5 * length + WELD
+    busy = np.flatnonzero(tree.query_ball_point(mid, radius, return_length=True) > 2)  # more than its two ends
+    hits = tree.query_ball_point(mid[busy], radius[busy]) if len(busy) else []
+    e = np.repeat(busy, [len(h) for h in hits])
+    near = corners[np.concatenate(hits).astype(np.int64)] if len(e) else np.empty(0, dtype=np.int64)
+    d = pb[e] - pa[e]
+    t = np.einsum("ij,ij->i", vertices[near] - pa[e], d) / (length[e] * length[e])
+    gap = np.linalg.norm(vertices[near] - (pa[e] + t[:, None] * d), axis=1)
+    keep = ((near != edges[e, 0]) & (near != edges[e, 1]) & (gap <= WELD) & (t * length[e] > WELD)
+            & ((1.0 - t) * length[e] > WELD))
+    out: dict[tuple[int, int], list[int]] = {}
+    for k in np.flatnonzero(keep)[np.lexsort((t[keep], e[keep]))]:  # by edge, then from a
+        out.setdefault((int(edges[e[k], 0]), int(edges[e[k], 1])), []).append(int(near[k]))
     return out
 
 
@@ -128,14 +239,10 @@ def nesting(parts: list[tuple[NDArray[np.float64], NDArray[np.int64]]]) -> list[
 
 
 def is_closed(vertices: ArrayLike, faces: ArrayLike) -> bool:
-    """Whether the triangles ``faces`` (F, 3) of ``vertices`` (V, 3) close up: every part is closed
+    """Whether the triangles ``faces`` (F, 3) of ``vertices`` (V, 3) close up: every part is closed, or mended
     (:func:`solids`)."""
-    import trimesh
-
-    mesh = trimesh.Trimesh(*welded(vertices, faces), process=True)
-    mesh.update_faces(mesh.unique_faces())
-    parts = mesh.split(only_watertight=False, repair=False)
-    return len(parts) > 0 and all(part.is_watertight for part in parts)
+    parts, left_open = _solids(vertices, faces)
+    return bool(parts) and not left_open
 
 
 def points_inside(mesh: Mesh, points: ArrayLike) -> NDArray[np.bool_]:
