@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
 from navstack.self_contact import _segment_distance
-from navstack.sim.mesh_inside import nesting, solids
+from navstack.sim.mesh_inside import held, nesting, solids
 from navstack.world import Mesh
 
 __all__ = ["TOLERANCE", "MeshContacts", "MeshDepth"]
@@ -154,25 +154,6 @@ def _crossings(a, b, tri, out):  # pragma: no cover - jitted
     return n
 
 
-@numba.njit(cache=True)
-def _winding(px, py, pz, tri):  # pragma: no cover - jitted
-    """The winding number of p with respect to the triangles ``tri`` (F, 3, 3): the sum of their signed solid
-    angles over 4 pi (Van Oosterom and Strackee), as :func:`navstack.sim.mesh_inside.winding_numbers`."""
-    total = 0.0
-    for f in range(tri.shape[0]):
-        ax, ay, az = tri[f, 0, 0] - px, tri[f, 0, 1] - py, tri[f, 0, 2] - pz
-        bx, by, bz = tri[f, 1, 0] - px, tri[f, 1, 1] - py, tri[f, 1, 2] - pz
-        cx, cy, cz = tri[f, 2, 0] - px, tri[f, 2, 1] - py, tri[f, 2, 2] - pz
-        la = math.sqrt(ax * ax + ay * ay + az * az)
-        lb = math.sqrt(bx * bx + by * by + bz * bz)
-        lc = math.sqrt(cx * cx + cy * cy + cz * cz)
-        det = ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
-        den = (la * lb * lc + (ax * bx + ay * by + az * bz) * lc + (ax * cx + ay * cy + az * cz) * lb
-               + (bx * cx + by * cy + bz * cz) * la)
-        total += 2.0 * math.atan2(det, den)
-    return total / (4.0 * math.pi)
-
-
 class MeshDepth:
     """A mesh obstacle's exact signed distance to capsules (module docstring), its triangles and solids read once.
 
@@ -211,11 +192,7 @@ class MeshDepth:
 
     def inside(self, local_point: NDArray[np.float64]) -> bool:
         """Whether a point of the mesh's frame lies inside it (the innermost closed part holding it is a solid)."""
-        innermost = -1
-        for part, depth in zip(self._part_tri, self._depths, strict=True):
-            if depth > innermost and abs(_winding(*local_point, part)) > 0.5:
-                innermost = depth
-        return innermost >= 0 and innermost % 2 == 0
+        return held(self._part_tri, self._depths, local_point)
 
     def box_gap(self, a: NDArray[np.float64], b: NDArray[np.float64]) -> float:
         """A lower bound [m] of the distance between segment a-b (mesh frame) and the mesh: to its box."""

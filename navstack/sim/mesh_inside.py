@@ -21,6 +21,9 @@ itself are not meaningful here: the caller has already refused any contact with 
 
 from __future__ import annotations
 
+import math
+
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
@@ -55,20 +58,41 @@ def welded(vertices: ArrayLike, faces: ArrayLike, tol: float = WELD) -> tuple[ND
     return v, g[keep]
 
 
+@numba.njit(cache=True)
+def _winding(px, py, pz, tri):  # pragma: no cover - jitted
+    """The winding number of p with respect to the triangles ``tri`` (F, 3, 3): the sum of their signed solid
+    angles over 4 pi (Van Oosterom and Strackee)."""
+    total = 0.0
+    for f in range(tri.shape[0]):
+        ax, ay, az = tri[f, 0, 0] - px, tri[f, 0, 1] - py, tri[f, 0, 2] - pz
+        bx, by, bz = tri[f, 1, 0] - px, tri[f, 1, 1] - py, tri[f, 1, 2] - pz
+        cx, cy, cz = tri[f, 2, 0] - px, tri[f, 2, 1] - py, tri[f, 2, 2] - pz
+        la = math.sqrt(ax * ax + ay * ay + az * az)
+        lb = math.sqrt(bx * bx + by * by + bz * bz)
+        lc = math.sqrt(cx * cx + cy * cy + cz * cz)
+        det = ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
+        den = (la * lb * lc + (ax * bx + ay * by + az * bz) * lc + (ax * cx + ay * cy + az * cz) * lb
+               + (bx * cx + by * cy + bz * cz) * la)
+        total += 2.0 * math.atan2(det, den)
+    return total / (4.0 * math.pi)
+
+
 def winding_numbers(vertices: ArrayLike, faces: ArrayLike, points: ArrayLike) -> NDArray[np.float64]:
     """The winding number (P,) of each of ``points`` (P, 3) [m] with respect to the triangles ``faces`` (F, 3,
     vertex indices) of ``vertices`` (V, 3) [m]: about +-1 inside a closed mesh, about 0 outside."""
-    v = np.asarray(vertices, dtype=np.float64)
-    tri = v[np.asarray(faces, dtype=np.int64)]  # (F, 3 corners, 3)
-    out = np.empty(len(np.atleast_2d(points)))
-    for k, p in enumerate(np.atleast_2d(np.asarray(points, dtype=np.float64))):
-        a, b, c = (tri[:, i] - p for i in range(3))
-        la, lb, lc = (np.linalg.norm(x, axis=1) for x in (a, b, c))
-        det = np.einsum("ij,ij->i", a, np.cross(b, c))
-        den = (la * lb * lc + np.einsum("ij,ij->i", a, b) * lc + np.einsum("ij,ij->i", a, c) * lb
-               + np.einsum("ij,ij->i", b, c) * la)
-        out[k] = np.sum(2.0 * np.arctan2(det, den)) / (4.0 * np.pi)
-    return out
+    tri = np.ascontiguousarray(np.asarray(vertices, dtype=np.float64)[np.asarray(faces, dtype=np.int64)])
+    return np.array([_winding(p[0], p[1], p[2], tri) for p in np.atleast_2d(np.asarray(points, dtype=np.float64))])
+
+
+def held(parts: list[NDArray[np.float64]], depths: list[int], point: NDArray[np.float64]) -> bool:
+    """Whether ``point`` (3,) [m] lies inside the solid made of the closed ``parts`` (their triangles (F, 3, 3), in
+    the point's frame) nested ``depths`` deep (:func:`nesting`): the innermost part holding it is a solid (inside
+    an even number of others), not a cavity."""
+    innermost = -1
+    for tri, depth in zip(parts, depths, strict=True):
+        if depth > innermost and abs(_winding(point[0], point[1], point[2], tri)) > 0.5:
+            innermost = depth
+    return innermost >= 0 and innermost % 2 == 0
 
 
 def solids(vertices: ArrayLike, faces: ArrayLike) -> list[tuple[NDArray[np.float64], NDArray[np.int64]]]:
@@ -254,9 +278,7 @@ def points_inside(mesh: Mesh, points: ArrayLike) -> NDArray[np.bool_]:
     local = (pts - mesh.position) @ R  # R.T @ (p - position), row by row
     inside = np.all((local >= vertices.min(axis=0)) & (local <= vertices.max(axis=0)), axis=1)  # in its box
     parts = solids(vertices, faces) if inside.any() else []  # a surface with a hole has no inside
-    innermost = np.full(int(inside.sum()), -1)  # the depth of the innermost part holding each point
-    for part, depth in zip(parts, nesting(parts), strict=True):
-        holds = np.abs(winding_numbers(*part, local[inside])) > 0.5
-        innermost[holds & (depth > innermost)] = depth
-    inside[inside] = (innermost >= 0) & (innermost % 2 == 0)
+    triangles = [np.ascontiguousarray(v[f]) for v, f in parts]
+    depths = nesting(parts)
+    inside[inside] = [held(triangles, depths, p) for p in local[inside]]
     return inside
