@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from navstack.world import World, load_world
+from navstack.world import World, WorldError, load_world
 
 ROOT = Path(__file__).resolve().parents[1]
 HELP = "world files (default: the paper demo, truss_clutter.json and slot-rack seed 5)"
@@ -14,7 +14,10 @@ def bench_worlds(paths: list[str] | None) -> list[tuple[str, World]]:
     """(label, world) for each file in ``paths``; by default the paper demo, ``truss_clutter.json`` and
     slot-rack seed 5 (sparse goals)."""
     if paths:
-        return [(Path(p).stem, load_world(p)) for p in paths]
+        try:
+            return [(Path(p).stem, load_world(p)) for p in paths]
+        except WorldError as e:  # a bad or missing file: its message, not a traceback
+            raise SystemExit(f"error: {e}") from None
     from navstack.generate import generate_world
 
     return [("paper_truss (demo)", load_world(ROOT / "worlds" / "paper_truss.json")),
