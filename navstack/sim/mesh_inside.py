@@ -174,8 +174,13 @@ def mended(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> tuple[
 def _balanced(faces: NDArray[np.int64]) -> bool:
     """Whether every edge of the triangles ``faces`` (F, 3) is run as often one way as the other."""
     a, b = faces.ravel(), np.roll(faces, -1, axis=1).ravel()  # the directed edges a -> b
-    _, edge = np.unique(np.stack([np.minimum(a, b), np.maximum(a, b)], axis=1), axis=0, return_inverse=True)
-    return bool(np.all(np.bincount(edge.ravel(), weights=np.where(a < b, 1.0, -1.0)) == 0.0))
+    _, edge = np.unique(_edge_keys(a, b), return_inverse=True)
+    return bool(np.all(np.bincount(edge, weights=np.where(a < b, 1.0, -1.0)) == 0.0))
+
+
+def _edge_keys(a: NDArray[np.int64], b: NDArray[np.int64]) -> NDArray[np.int64]:
+    """One integer per undirected edge a-b (vertex indices below 2**31)."""
+    return np.minimum(a, b) << 31 | np.maximum(a, b)
 
 
 def split_t_junctions(vertices: NDArray[np.float64], faces: NDArray[np.int64], rounds: int = 8
@@ -211,7 +216,8 @@ def _on_edges(vertices: NDArray[np.float64], corners: NDArray[np.int64], tree, f
               ) -> dict[tuple[int, int], list[int]]:
     """Per edge ``(a, b)`` of ``faces`` (a < b) with vertices of ``corners`` (indexed by ``tree``) within :data:`WELD`
     of it strictly between its ends, those vertices in order from a."""
-    edges = np.unique(np.sort(np.stack([faces.ravel(), np.roll(faces, -1, axis=1).ravel()], axis=1), axis=1), axis=0)
+    key = np.unique(_edge_keys(faces.ravel(), np.roll(faces, -1, axis=1).ravel()))
+    edges = np.stack([key >> 31, key & (2**31 - 1)], axis=1)
     pa, pb = vertices[edges[:, 0]], vertices[edges[:, 1]]
     length = np.linalg.norm(pb - pa, axis=1)
     mid, radius = 0.5 * (pa + pb), 0.5 * length + WELD
