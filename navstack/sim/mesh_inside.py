@@ -156,26 +156,68 @@ def mended(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> tuple[
     from scipy.sparse.csgraph import connected_components
 
     f = split_t_junctions(vertices, faces)
-    n = len(vertices)
-    graph = coo_matrix((np.ones(2 * len(f)), (np.r_[f[:, 0], f[:, 1]], np.r_[f[:, 1], f[:, 2]])), shape=(n, n))
-    label = connected_components(graph, directed=False)[1][f[:, 0]]
+    if len(f) == 0:
+        return [], True
+    # parts joined by their edges (a stray triangle touching a solid at a corner is not part of it): a graph of
+    # the faces and their edges, each face joined to its three
+    _, edge = np.unique(_edge_keys(f.ravel(), np.roll(f, -1, axis=1).ravel()), return_inverse=True)
+    n = len(f) + edge.max() + 1
+    face = np.repeat(np.arange(len(f)), 3)
+    label = connected_components(coo_matrix((np.ones(len(face)), (face, len(f) + edge)), shape=(n, n)),
+                                 directed=False)[1][: len(f)]
     out, left_open = [], False
     for part in np.unique(label):
         tri = f[label == part]
         start = tri.argmin(axis=1)[:, None]  # each triangle turned to start at its least corner, same way round
         once = np.unique(np.take_along_axis(tri, (start + np.arange(3)) % 3, axis=1), axis=0)
         good = next((t for t in (tri, once) if _balanced(t)), None)
+        good = None if good is None else _without_opposite_pairs(good)
+        if good is not None and len(good) == 0:  # a surface written both ways: one side of it, as a closed one's
+            one = _one_side(tri)
+            good = one if _balanced(one) else None
         if good is None:
             left_open = True
             continue
         used, compact = np.unique(good, return_inverse=True)
         out.append((np.asarray(vertices[used], dtype=np.float64), compact.reshape(-1, 3).astype(np.int64)))
     return out, left_open
+
+
+def _without_opposite_pairs(faces: NDArray[np.int64]) -> NDArray[np.int64]:
+    """``faces`` (F, 3) less each triangle written both ways round, both copies (their solid angles cancel: the
+    wall between two solids glued face to face, or a surface written two-sided); the edges' balance is kept."""
+    from collections import Counter
+
+    def key(t: tuple[int, int, int]) -> tuple[int, int, int]:
+        k = t.index(min(t))
+        return t[k:] + t[:k]
+
+    keys = [key(tuple(t)) for t in faces.tolist()]
+    count = Counter(keys)
+    left = {k: c - min(c, count.get(key(k[::-1]), 0)) for k, c in count.items()}
+    keep = []
+    for i, k in enumerate(keys):
+        if left[k] > 0:
+            left[k] -= 1
+            keep.append(i)
+    return faces[keep]
+
+
+def _one_side(faces: NDArray[np.int64]) -> NDArray[np.int64]:
+    """``faces`` (F, 3) with each triangle once, whichever way round it is first written (trimesh's rule)."""
+    return faces[np.sort(np.unique(np.sort(faces, axis=1), axis=0, return_index=True)[1])]
+
+
+def _unbalanced(faces: NDArray[np.int64]) -> NDArray[np.int64]:
+    """The edges (:func:`_edge_keys`) of the triangles ``faces`` (F, 3) run more often one way than the other."""
+    a, b = faces.ravel(), np.roll(faces, -1, axis=1).ravel()  # the directed edges a -> b
+    key, edge = np.unique(_edge_keys(a, b), return_inverse=True)
+    return key[np.bincount(edge, weights=np.where(a < b, 1.0, -1.0)) != 0.0]
+
+
 def _balanced(faces: NDArray[np.int64]) -> bool:
     """Whether every edge of the triangles ``faces`` (F, 3) is run as often one way as the other."""
-    a, b = faces.ravel(), np.roll(faces, -1, axis=1).ravel()  # the directed edges a -> b
-    _, edge = np.unique(_edge_keys(a, b), return_inverse=True)
-    return bool(np.all(np.bincount(edge, weights=np.where(a < b, 1.0, -1.0)) == 0.0))
+    return len(faces) > 0 and len(_unbalanced(faces)) == 0
 
 
 def _edge_keys(a: NDArray[np.int64], b: NDArray[np.int64]) -> NDArray[np.int64]:
@@ -186,9 +228,11 @@ def _edge_keys(a: NDArray[np.int64], b: NDArray[np.int64]) -> NDArray[np.int64]:
 def split_t_junctions(vertices: NDArray[np.float64], faces: NDArray[np.int64], rounds: int = 8
                       ) -> NDArray[np.int64]:
     """``faces`` (F, 3) with each triangle that has vertices of ``faces`` lying on one of its edges (within
-    :data:`WELD`, between its ends) split there: a fan from the opposite corner, the same way round.  Each round splits
-    one edge per triangle; ``rounds`` of them (a triangle has three edges; more only where splits make new
-    junctions)."""
+    :data:`WELD`, between its ends) split there: a fan from the opposite corner, the same way round.  Only edges
+    that do not balance (:func:`_balanced`) are split: splitting a balanced one cannot close anything, and long
+    thin triangles (a fan of slivers) split each other round after round, into millions.  A triangle split at
+    its own corner (a sliver within :data:`WELD` of a line) is dropped.  Each round splits one edge per triangle;
+    ``rounds`` of them (a triangle has three edges; more only where splits make new junctions)."""
     from scipy.spatial import cKDTree
 
     f = np.asarray(faces, dtype=np.int64)
@@ -209,6 +253,7 @@ def split_t_junctions(vertices: NDArray[np.float64], faces: NDArray[np.int64], r
                     split[k] = True
                     break
         f = np.concatenate([f[~split], np.asarray(new, dtype=np.int64).reshape(-1, 3)])
+        f = f[(f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 2] != f[:, 0])]  # a sliver split at its own corner
     return f
 
 
@@ -216,7 +261,9 @@ def _on_edges(vertices: NDArray[np.float64], corners: NDArray[np.int64], tree, f
               ) -> dict[tuple[int, int], list[int]]:
     """Per edge ``(a, b)`` of ``faces`` (a < b) with vertices of ``corners`` (indexed by ``tree``) within :data:`WELD`
     of it strictly between its ends, those vertices in order from a."""
-    key = np.unique(_edge_keys(faces.ravel(), np.roll(faces, -1, axis=1).ravel()))
+    # a balanced edge needs no split; in the faces as written, or with each triangle once (a surface written
+    # two-sided balances everywhere, T-junctions and all, but :func:`mended` may fall back to one side of it)
+    key = np.union1d(_unbalanced(faces), _unbalanced(_one_side(faces)))
     edges = np.stack([key >> 31, key & (2**31 - 1)], axis=1)
     pa, pb = vertices[edges[:, 0]], vertices[edges[:, 1]]
     length = np.linalg.norm(pb - pa, axis=1)
