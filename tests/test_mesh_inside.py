@@ -417,6 +417,29 @@ def test_mending_sliver_fans_stray_fins_touching_cavities_and_two_sided_t_juncti
     assert _inside(v, f, [[2, 1.5, 1.5], [0.5, 3.5, 3.5], [5, 2, 2]]) == [False, True, False]  # cavity, wall, out
 
 
+def test_solids_are_kept_for_the_same_arrays_only(monkeypatch):
+    """A mesh's solids are computed once for the goal check, the start check and the exact depth; other arrays
+    (another mesh, or the same one changed in place) are computed again, and what is kept cannot be changed."""
+    import navstack.sim.mesh_inside as mesh_inside
+
+    computed = []
+    original = mesh_inside._solids_of
+    monkeypatch.setattr(mesh_inside, "_solids_of", lambda v, f: computed.append(len(f)) or original(v, f))
+    monkeypatch.setattr(mesh_inside, "_SOLIDS", {})
+    box = trimesh.creation.box(extents=[2.0, 1.0, 0.5])
+    v, f = np.array(box.vertices), np.array(box.faces)
+    first = solids(v, f)
+    assert solids(v.copy(), f.copy()) == first and is_closed(v, f) and computed == [12]
+    v[0] += 1.0  # the same array, another mesh
+    assert (solids(v, f)[0][0] == v[0]).all(axis=1).any() and computed == [12, 12]  # its solid has the new corner
+    with pytest.raises(ValueError):
+        first[0][0][0, 0] = 5.0
+    for k in range(1, mesh_inside.SOLIDS_KEPT + 1):
+        solids(v + k, f)
+    solids(box.vertices, box.faces)  # the first mesh again, forgotten since
+    assert len(computed) == 2 + mesh_inside.SOLIDS_KEPT + 1
+
+
 def _cracked(mesh: trimesh.Trimesh, crack: float, seed: int = 3) -> trimesh.Trimesh:
     """``mesh`` as a triangle soup (each triangle its own corners, as CAD exports write them), every corner
     nudged by up to ``crack`` [m] along each axis: closed to its user, cracks of up to ``2 sqrt(3) crack``."""

@@ -110,9 +110,37 @@ def solids(vertices: ArrayLike, faces: ArrayLike) -> list[tuple[NDArray[np.float
     return _solids(vertices, faces)[0]
 
 
+_SOLIDS: dict[bytes, tuple[list[tuple[NDArray[np.float64], NDArray[np.int64]]], bool]] = {}
+"""The last few meshes' :func:`_solids`, by a digest of their arrays: a trial asks for a mesh's solids up to three
+times (goal check, start check, exact depth), a sweep's worker once per trial, and a large CAD mesh takes seconds."""
+
+SOLIDS_KEPT = 4
+"""How many meshes' solids :data:`_SOLIDS` keeps."""
+
+
 def _solids(vertices: ArrayLike, faces: ArrayLike) -> tuple[list[tuple[NDArray[np.float64], NDArray[np.int64]]],
                                                              bool]:
-    """:func:`solids`, and whether some of the surface is left open."""
+    """:func:`solids`, and whether some of the surface is left open (kept for the next call on the same arrays;
+    the arrays returned are read-only)."""
+    import hashlib
+
+    v, f = np.ascontiguousarray(vertices, dtype=np.float64), np.ascontiguousarray(faces, dtype=np.int64)
+    key = hashlib.sha256(np.array(v.shape + f.shape).tobytes() + v.tobytes() + f.tobytes()).digest()
+    if key not in _SOLIDS:
+        parts, left_open = _solids_of(v, f)
+        for pair in parts:
+            for array in pair:
+                array.flags.writeable = False
+        if len(_SOLIDS) >= SOLIDS_KEPT:
+            del _SOLIDS[next(iter(_SOLIDS))]  # the oldest
+        _SOLIDS[key] = parts, left_open
+    parts, left_open = _SOLIDS[key]
+    return list(parts), left_open
+
+
+def _solids_of(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> tuple[
+        list[tuple[NDArray[np.float64], NDArray[np.int64]]], bool]:
+    """:func:`_solids`, computed."""
     import trimesh  # slow to import: only mesh worlds need it
 
     v, f = welded(vertices, faces)
