@@ -179,7 +179,11 @@ def mended(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> tuple[
     Triangles are split at the vertices lying on their edges (:func:`split_t_junctions`); then a connected part
     whose directed edges balance (each edge run as often one way as the other, the faces' own orientation
     trusted) is a sum of closed surfaces: its winding number is a whole number everywhere off the surface, +-1
-    in each solid glued in.  Triangles repeated the same way round are tried once too (an STL's duplicates)."""
+    in each solid glued in.  Triangles repeated the same way round are tried once too (an STL's duplicates).
+    Parts are joined by their edges, not corners (a stray fin touching a solid leaves it closed).  A triangle
+    written both ways round is taken out, both copies (:func:`_without_opposite_pairs`); a part that is nothing
+    else (a surface written two-sided) keeps one side of it (:func:`_one_side`), as trimesh's rule does for a
+    watertight one."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
@@ -256,11 +260,12 @@ def _edge_keys(a: NDArray[np.int64], b: NDArray[np.int64]) -> NDArray[np.int64]:
 def split_t_junctions(vertices: NDArray[np.float64], faces: NDArray[np.int64], rounds: int = 8
                       ) -> NDArray[np.int64]:
     """``faces`` (F, 3) with each triangle that has vertices of ``faces`` lying on one of its edges (within
-    :data:`WELD`, between its ends) split there: a fan from the opposite corner, the same way round.  Only edges
-    that do not balance (:func:`_balanced`) are split: splitting a balanced one cannot close anything, and long
-    thin triangles (a fan of slivers) split each other round after round, into millions.  A triangle split at
-    its own corner (a sliver within :data:`WELD` of a line) is dropped.  Each round splits one edge per triangle;
-    ``rounds`` of them (a triangle has three edges; more only where splits make new junctions)."""
+    :data:`WELD`, between its ends) split there: a fan from the opposite corner, the same way round. Only edges
+    that do not balance, as written or with each triangle once (:func:`_unbalanced`, :func:`_one_side`), are
+    split: splitting a balanced one cannot close anything, and long thin triangles (a fan of slivers) split each
+    other round after round, into millions. A triangle split at its own corner (a sliver within :data:`WELD` of
+    a line) is dropped. Each round splits one edge per triangle; ``rounds`` of them (a triangle has three edges;
+    more only where splits make new junctions)."""
     from scipy.spatial import cKDTree
 
     f = np.asarray(faces, dtype=np.int64)
