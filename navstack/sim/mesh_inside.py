@@ -200,9 +200,11 @@ def mended(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> tuple[
     out, left_open = [], False
     for part in np.unique(label):
         tri = f[label == part]
-        start = tri.argmin(axis=1)[:, None]  # each triangle turned to start at its least corner, same way round
-        once = np.unique(np.take_along_axis(tri, (start + np.arange(3)) % 3, axis=1), axis=0)
-        good = next((t for t in (tri, once) if _balanced(t)), None)
+        good = tri if _balanced(tri) else None
+        if good is None:  # each triangle turned to start at its least corner, same way round, then taken once
+            start = tri.argmin(axis=1)[:, None]
+            once = np.unique(np.take_along_axis(tri, (start + np.arange(3)) % 3, axis=1), axis=0)
+            good = once if _balanced(once) else None
         good = None if good is None else _without_opposite_pairs(good)
         if good is not None and len(good) == 0:  # a surface written both ways: one side of it, as a closed one's
             one = _one_side(tri)
@@ -276,7 +278,9 @@ def split_t_junctions(vertices: NDArray[np.float64], faces: NDArray[np.int64], r
         if not on:
             break
         new, split = [], np.zeros(len(f), dtype=bool)
-        for k, tri in enumerate(f.tolist()):
+        edges = _edge_keys(f.ravel(), np.roll(f, -1, axis=1).ravel()).reshape(-1, 3)
+        for k in np.flatnonzero(np.isin(edges, [a << 31 | b for a, b in on]).any(axis=1)):  # the faces to split
+            tri = f[k].tolist()
             for i in range(3):
                 a, b, c = tri[i], tri[(i + 1) % 3], tri[(i + 2) % 3]
                 between = on.get((a, b)) or on.get((b, a), [])[::-1]
