@@ -17,7 +17,8 @@ surface along the piece, a max-min: each triangle's distance is convex along a s
 at most the larger of its two ends, and the least of those over the triangles bounds the distance to the surface
 from above; branch and bound splits the interval with the highest bound in half until the bound is within
 :data:`TOLERANCE` of the best found (a piece parallel to a face, where the distance is flat, is done at once;
-Lipschitz bounds alone needed millions of splits there).  Pure numpy and numba, no simulator.
+Lipschitz bounds alone needed millions of splits there).  The surface inside is the mesh's triangles less the
+faces two glued solids share (:mod:`navstack.sim.mesh_walls`).  Pure numpy and numba, no simulator.
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ from scipy.spatial.transform import Rotation
 
 from navstack.self_contact import _segment_distance
 from navstack.sim.mesh_inside import held, nesting, solids
+from navstack.sim.mesh_walls import inner_walls
 from navstack.world import Mesh
 
 __all__ = ["TOLERANCE", "MeshContacts", "MeshDepth"]
@@ -183,6 +185,8 @@ class MeshDepth:
         # inside on welded vertices: a crack narrower than WELD is closed there, and a piece entering through it
         # must be cut too); a cut too many only splits a piece
         self._cut_tri = np.ascontiguousarray(np.concatenate([self._tri] + [v[f] for v, f in self._parts]))
+        # a depth inside is measured to the solid's surface: not to a face two glued solids share
+        self._surface = np.ascontiguousarray(self._tri[~inner_walls(self._tri, self._part_tri, self._depths)])
         self._hits = np.empty(len(self._cut_tri))
         self._hit = np.empty(1)
 
@@ -239,9 +243,9 @@ class MeshDepth:
         within an interval it is at most the larger of its values at the ends; the least of those over the
         triangles bounds the distance to the surface there.  The interval with the highest bound is halved."""
         def at(t: float) -> tuple[float, NDArray[np.float64]]:
-            out = np.empty(len(self._tri))
+            out = np.empty(len(self._surface))
             q = p0 + t * (p1 - p0)
-            return _distances_to(q[0], q[1], q[2], self._tri, out), out
+            return _distances_to(q[0], q[1], q[2], self._surface, out), out
 
         (ua, da), (ub, db) = at(0.0), at(1.0)
         best = max(ua, ub)
