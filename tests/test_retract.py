@@ -89,11 +89,41 @@ def test_paper_truss_in_up_out_and_back_out_of_the_entry(tmp_path):
 
 
 @pytest.mark.slow
-def test_the_tip_only_baseline_retracts_too_but_its_body_cuts_the_truss():
+def test_the_tip_only_baseline_backs_out_too_but_its_body_cuts_the_truss():
     r = run_trial(load_world(WORLDS / "paper_truss_retract.json"), controller="tip-only", planner="scripted")
     print(f"retract tip-only/scripted: {r.reason}, retracted {r.retracted}, metrics {r.metrics}")
-    assert r.retracted is True and r.reason == "collision" and not r.success
+    assert r.retracted is False and r.reason == "collision" and not r.success  # off its path too (below)
     assert r.metrics["contacts"] > 0
+
+
+FREE = [(2.1, 0.1079, 1.1668), (2.35, 0.35, 1.35), (2.3, 0.6, 1.6)]
+"""Goals [m] of a way in through free space that turns (a review's world, session 40)."""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("controller", ["slither", "tip-only"])
+def test_a_retraction_whose_body_leaves_the_path_is_not_one(tmp_path, controller):
+    """Spec 2a: backing out, "every serpentine joint point stays on" the recorded path.  ``tip-only``'s body does
+    not follow its path: in free space it backed out 0.34 m off it, and the trial was a success with
+    ``retracted: true`` (only the tip was checked).  Now it runs on to its time limit, ``retracted: false``; the
+    slithering body retraces the path (deviations recomputed from trajectory.npz)."""
+    from navstack.generate.base import robot_dict
+
+    data = {"format": "navstack-world/1", "name": "free-retract", "robot": robot_dict(), "obstacles": [],
+            "goals": [{"position": list(g), "tolerance": 0.02} for g in FREE], "time_limit": 40.0, "retract": True}
+    world = world_from_dict(data)
+    r = run_trial(world, controller=controller, planner="scripted", out_dir=tmp_path)
+    _, dev_out = _deviation_both_ways(world, tmp_path)
+    tip_end = _backbone_world(world, np.load(tmp_path / "trajectory.npz")["q"][-1])[0]
+    back = np.linalg.norm(tip_end - _backbone_world(world, world.robot.q0)[0])
+    print(f"retract {controller}/scripted in free space: {r.reason}, retracted {r.retracted}, sim {r.sim_time} s, "
+          f"deviation out {dev_out * 1e3:.2f} mm, tip {back * 1e3:.1f} mm from its start")
+    assert r.goals_reached == 3 and r.metrics["contacts"] == 0 and back <= RETRACT_TOLERANCE  # the tip got back
+    if controller == "slither":
+        assert r.success and r.retracted is True and dev_out < 1e-3
+    else:
+        assert dev_out > 0.2 and not r.success and r.reason == "timeout" and r.retracted is False
+        assert r.sim_time == pytest.approx(40.0)
 
 
 @pytest.mark.slow
