@@ -417,7 +417,9 @@ def read_results(path: str | Path) -> ResultsFile:
         raw = data[pos:end]
         if raw.strip():
             try:
-                obj = json.loads(raw.decode("utf-8"), parse_constant=_refuse_constant)
+                # (the line's end left out: a line cut inside a string then reads "Unterminated string", not
+                # "Invalid control character")
+                obj = json.loads(raw.rstrip(b"\r\n").decode("utf-8"), parse_constant=_refuse_constant)
                 if not isinstance(obj, dict):
                     raise ValueError(f"expected a JSON object, got {type(obj).__name__}")
             except (ValueError, RecursionError) as exc:  # RecursionError: nested too deeply

@@ -266,6 +266,8 @@ def test_truncated_last_line_is_ignored_with_a_note(tmp_path):
      "line 2: field 'sim_time' must be a number in [0, 1e9] or null, got -1"),
     # deeply nested: a RecursionError in the parser
     ("GOOD\n" + "[" * 100000 + "\nGOOD\n", "line 2: malformed result line (nested too deeply)"),
+    # a line cut inside a string, not the last: its own end is not read as part of the string (a review's case)
+    ('GOOD\n{"controller": "sli\nGOOD\n', "line 2: malformed result line (Unterminated string starting at"),
     # types (they once went into sets and dict keys: TypeError)
     ('GOOD\n{"controller": "s", "planner": "f", "success": false, "reason": "timeout", '
      '"provenance": {"navstack": [1], "commit": null}}\n',
