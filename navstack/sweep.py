@@ -181,7 +181,8 @@ class SweepConfig:
     """What ``navstack trials`` runs.
 
     Exactly one world source: ``families`` (generate ``count`` worlds per family and difficulty from
-    ``seed``) or ``worlds_dir`` (every ``*.json`` file directly in that folder, and every dangling symbolic
+    ``seed``) or ``worlds_dir`` (every ``*.json`` file directly in that folder, the suffix in any case
+    (``B.JSON``: a Windows export was left out without a word, a review's case), and every dangling symbolic
     link so named (its trials are ``error`` lines), sorted by name, each run ``count`` times with different
     noise seeds). ``difficulties`` are passed to the generator (ignored for ``worlds_dir``; there the
     difficulty is read from the world's ``extra.difficulty`` when it is a number in [-1e9, 1e9]).
@@ -326,9 +327,14 @@ def build_specs(config: SweepConfig) -> list[TrialSpec]:
         if not folder.is_dir():
             raise SweepError(f"--worlds: {folder} is not a directory")
         # a dangling symbolic link is listed too (its trials become error lines, as for an unreadable file)
-        files = sorted(p for p in folder.glob("*.json") if p.is_file() or (p.is_symlink() and not p.exists()))
+        files = sorted(p for p in folder.iterdir() if p.suffix.lower() == ".json"
+                       and (p.is_file() or (p.is_symlink() and not p.exists())))
         if not files:
             raise SweepError(f"--worlds: no *.json world files in {folder}")
+        named: dict[str, Path] = {}
+        for p in files:  # a.json and a.JSON: one world id, one trial id
+            if named.setdefault(p.stem, p) is not p:
+                raise SweepError(f"--worlds: {named[p.stem]} and {p.name} would both be world '{p.stem}'; rename one")
         _check_utf8_names(files)
         _check_total(config, len(files))
         infos = [(p, *_world_file_info(p)) for p in files]
@@ -1104,7 +1110,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     src = parser.add_mutually_exclusive_group(required=True)
     src.add_argument("--generate", nargs="+", metavar="FAMILY",
                      help="world families to generate (listed below): " + ", ".join(FAMILIES))
-    src.add_argument("--worlds", metavar="DIR", type=nonempty_path, help="run every *.json world file in DIR")
+    src.add_argument("--worlds", metavar="DIR", type=nonempty_path,
+                     help="run every *.json world file in DIR (the suffix in any case; not in subfolders)")
     parser.add_argument("--count", type=int, default=1,
                         help="worlds per family and difficulty (--generate) "
                              "or repetitions per file (--worlds)")

@@ -162,6 +162,24 @@ def test_worlds_dir_specs_read_family_and_difficulty(tmp_path):
     assert len({s.seed for s in specs if s.world_id == "w00"}) == 2  # repetitions get different noise seeds
 
 
+def test_worlds_dir_takes_the_json_suffix_in_any_case_and_no_subfolders(tmp_path):
+    """``B.JSON`` (a Windows export) was left out without a word (a review's case); a subfolder's files, other
+    suffixes and folders named like a world file are not worlds."""
+    folder = write_worlds(tmp_path / "in", 3)
+    (folder / "w01.json").rename(folder / "W01.JSON")
+    (folder / "w02.json").rename(folder / "w02.Json")
+    (folder / "sub").mkdir()
+    (folder / "sub" / "w03.json").write_text((folder / "w00.json").read_text())
+    (folder / "dir.json").mkdir()
+    (folder / "notes.json.txt").write_text("not a world")
+    specs = build_specs(SweepConfig(worlds_dir=str(folder)))
+    assert [s.world_id for s in specs] == ["W01", "w00", "w02"]  # sorted by name, as before
+    assert {Path(s.world_file).name for s in specs} == {"W01.JSON", "w00.json", "w02.Json"}
+    (folder / "w00.JSON").write_text((folder / "w00.json").read_text())
+    with pytest.raises(SweepError, match=r"w00\.(JSON|json) and w00\.(JSON|json) would both be world 'w00'"):
+        build_specs(SweepConfig(worlds_dir=str(folder)))
+
+
 @pytest.mark.parametrize(("kwargs", "needle"), [
     ({"families": ("truss",), "count": 0}, "count"),
     ({"families": ("truss",), "difficulties": (float("nan"),)}, "difficulty"),
