@@ -268,13 +268,15 @@ def _model(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _non_negative_int(text: str) -> int:
+def _seed(text: str) -> int:
+    from navstack.validate import is_seed
+
     try:
         value = int(text)
     except ValueError:
         value = -1
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {text!r}")
+    if not is_seed(value):
+        raise argparse.ArgumentTypeError(f"expected an integer from 0 to 2**63 - 1, got {text!r}")
     return value
 
 
@@ -391,7 +393,7 @@ def _add_trial_commands(sub: Any) -> None:
         choices=CONTROLLERS,
         help="repeatable (default: slither, then the tip-only baseline)",
     )
-    d.add_argument("--seed", type=_non_negative_int, default=0)
+    d.add_argument("--seed", type=_seed, default=0)
     d.add_argument("--no-animate", action="store_true", help="skip the animation of each trial (animation.mp4)")
     d.set_defaults(func=_demo)
 
@@ -401,7 +403,7 @@ def _add_trial_commands(sub: Any) -> None:
                    help="output folder for result.json and trajectory.npz")
     r.add_argument("--controller", choices=CONTROLLERS, default="slither")
     r.add_argument("--planner", choices=PLANNERS, default="field")
-    r.add_argument("--seed", type=_non_negative_int, default=0, help="seed of the sensor noise (default 0)")
+    r.add_argument("--seed", type=_seed, default=0, help="seed of the sensor noise (default 0)")
     r.add_argument("--render", action="store_true", help="also write scene.png (TinyRenderer)")
     _add_world_options(r)
     r.add_argument("--animate", action="store_true", help="also write animation.mp4 (see: navstack animate)")

@@ -86,6 +86,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from navstack.executors import BACKENDS, SweepWorkerError, error_reply
+from navstack.validate import is_seed
 
 if TYPE_CHECKING:
     from navstack.executors import TrialJob
@@ -208,8 +209,8 @@ class SweepConfig:
                              "or worlds_dir (--worlds)")
         if isinstance(self.count, bool) or not isinstance(self.count, int) or self.count < 1:
             raise SweepError(f"sweep config: count must be an integer >= 1, got {self.count!r}")
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
-            raise SweepError(f"sweep config: seed must be an integer >= 0, got {self.seed!r}")
+        if not (isinstance(self.seed, int) and is_seed(self.seed)):
+            raise SweepError(f"sweep config: seed must be an integer from 0 to 2**63 - 1, got {self.seed!r}")
         if not isinstance(self.retract, bool):
             raise SweepError(f"sweep config: retract must be true or false, got {self.retract!r}")
         if self.retract and not self.families:

@@ -55,7 +55,7 @@ from navstack.planner.reactive import PlannerConfig
 from navstack.self_contact import pair_frames, self_clearance, self_pairs
 from navstack.sensing import SensorConfig
 from navstack.sim.servo import ServoConfig
-from navstack.validate import instance, positive
+from navstack.validate import instance, is_seed, positive
 from navstack.world import Mesh, WorldError
 
 REASONS = ("reached", "collision", "timeout", "stalled", "joint_limit", "error")
@@ -300,8 +300,8 @@ def _check_inputs(controller: str, planner: str, seed: int, config: TrialConfig 
 
     _check_choice("controller", controller, controller_names())
     _check_choice("planner", planner, planner_names())
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise TrialInputError(f"seed must be a non-negative integer, got {seed!r}")
+    if not is_seed(seed):
+        raise TrialInputError(f"seed must be an integer from 0 to 2**63 - 1, got {seed!r}")
     if config is not None and not isinstance(config, TrialConfig):
         raise TrialInputError(f"config must be a TrialConfig (or None for the defaults), got {config!r:.80}")
     if not isinstance(render, bool):

@@ -27,8 +27,13 @@ from collections.abc import Callable
 
 import numpy as np
 
-__all__ = ["fail", "finite", "flag", "in_range", "instance", "integer", "is_integer", "is_number", "non_negative",
-           "positive"]
+__all__ = ["MAX_SEED", "fail", "finite", "flag", "in_range", "instance", "integer", "is_integer", "is_number",
+           "is_seed", "non_negative", "positive"]
+
+MAX_SEED = 2**63 - 1
+"""The largest seed taken (``run``, ``trials``, ``generate``): seeds are written to result.json, results.jsonl and
+world files, whose readers hold integers as int64 (or doubles); ``--seed 99999999999999999999999`` was written as
+a 77-bit integer (a review's case, session 40)."""
 
 
 def is_number(v: object) -> bool:
@@ -39,6 +44,11 @@ def is_number(v: object) -> bool:
 def is_integer(v: object) -> bool:
     """Whether ``v`` is an integer: an ``int`` or a numpy integer, not a ``bool``."""
     return isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
+
+
+def is_seed(v: object) -> bool:
+    """Whether ``v`` is a seed: an integer from 0 to :data:`MAX_SEED`."""
+    return is_integer(v) and 0 <= v <= MAX_SEED  # type: ignore[operator]
 
 
 def fail(obj: object, name: str, what: str) -> ValueError:

@@ -49,11 +49,29 @@ def test_generate_refuses_an_unknown_family(capsys, tmp_path):
     assert "trusss" in err and "truss" in err
 
 
-def test_negative_seed_is_bad_input(capsys):
+@pytest.mark.parametrize("seed", ["-1", str(2**63), "99999999999999999999999", "1.5"])
+def test_a_seed_outside_0_to_int64_is_bad_input(capsys, tmp_path, seed):
+    """Seeds are written to result.json, results.jsonl and world files, read as int64 (or doubles) elsewhere: a
+    77-bit seed was taken and written (a review's case, session 40)."""
     with pytest.raises(SystemExit) as ei:
-        main(["run", "w.json", "--out", "o", "--seed", "-1"])
+        main(["run", "w.json", "--out", "o", "--seed", seed])
     assert ei.value.code == 2
-    assert "non-negative integer" in capsys.readouterr().err
+    assert f"expected an integer from 0 to 2**63 - 1, got '{seed}'" in capsys.readouterr().err
+    if seed != "1.5":
+        assert main(["generate", "truss", "--seed", seed, "--out", str(tmp_path / "x.json")]) == 2
+        assert "seed must be an integer from 0 to 2**63 - 1" in capsys.readouterr().err
+        assert not (tmp_path / "x.json").exists()
+        assert main(["trials", "--generate", "truss", "--seed", seed, "--out", str(tmp_path / "s")]) == 2
+        assert "seed must be an integer from 0 to 2**63 - 1" in capsys.readouterr().err
+
+
+def test_the_largest_seed_is_taken_and_one_more_is_not():
+    from navstack.generate import generate_world
+    from navstack.trial import TrialInputError, run_trial
+
+    assert generate_world("truss", 2**63 - 1).extra["generator"]["seed"] == 2**63 - 1
+    with pytest.raises(TrialInputError, match="seed must be an integer from 0 to 2"):
+        run_trial("w.json", seed=2**63)
 
 
 def test_run_render_says_it_wrote_scene_png(tmp_path, capsys):

@@ -19,6 +19,7 @@ from navstack.generate.checks import CheckConfig, CheckReport, RobotStart, path_
 from navstack.generate.geometry import obstacle_distance, rounded
 from navstack.registry import FAMILIES as REGISTERED
 from navstack.registry import load
+from navstack.validate import is_seed
 from navstack.world import World
 
 __all__ = ["MAX_ATTEMPTS", "finish", "generate_world", "goal_path_clearance", "time_limit_for", "world_name"]
@@ -31,8 +32,8 @@ def check_args(family: Any, seed: Any, difficulty: Any) -> tuple[str, int, float
     """Validated ``(family, seed, difficulty)``; ValueError naming the bad argument."""
     if not isinstance(family, str) or family not in REGISTERED:
         raise ValueError(f"family must be one of {', '.join(REGISTERED)}; got {family!r}")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+    if not is_seed(seed):
+        raise ValueError(f"seed must be an integer from 0 to 2**63 - 1, got {seed!r}")
     real = (int, float, np.integer, np.floating)
     number = isinstance(difficulty, real) and not isinstance(difficulty, bool)
     if not (number and math.isfinite(float(difficulty)) and 0.0 <= float(difficulty) <= 1.0):
