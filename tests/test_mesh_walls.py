@@ -85,3 +85,41 @@ def test_wall_tests_past_the_budget_keep_every_triangle(tmp_path, monkeypatch):
     assert not _walls(glued.vertices, glued.faces).any()
     assert _depth(tmp_path, glued).capsule_clearance([0.8, 0.5, 0.5], [1.2, 0.5, 0.5], 0.05, 0.0) == \
         pytest.approx(-0.25, abs=1e-6)
+
+
+def test_candidates_are_coplanar_opposite_triangles_whose_boxes_meet():
+    """Only triangles with another of the file in their plane, facing the other way, boxes meeting, are tested:
+    none in a cube, the shared face's four in the glued pair, none between a cube and a far one whose face lies in
+    the same plane facing it."""
+    va, fa = _cube([0, 0, 0], [1, 1, 1])
+    assert mesh_walls._opposite_pairs(va[fa]).tolist() == []
+    glued = _glued(False, True)
+    tri = glued.vertices[glued.faces]
+    assert mesh_walls._opposite_pairs(tri).tolist() == np.flatnonzero(np.abs(tri[:, :, 0] - 1.0).max(axis=1) < 1e-12
+                                                                      ).tolist()
+    vb, fb = _cube([1, 2, 0], [2, 3, 1])  # its face x = 1 faces -x, the cube's +x: one plane, boxes 1 m apart
+    assert mesh_walls._opposite_pairs(np.vstack([va[fa], vb[fb]])).tolist() == []
+
+
+def test_samples_are_the_centroid_edge_midpoints_and_corners_pulled_in():
+    t = np.array([[0.0, 0.0, 0.0], [3.0, 0.0, 0.0], [0.0, 6.0, 0.0]])
+    c = np.array([1.0, 2.0, 0.0])
+    raw = [c, (t[0] + t[1]) / 2, (t[1] + t[2]) / 2, (t[2] + t[0]) / 2, t[0], t[1], t[2]]
+    expected = sorted(map(tuple, np.round([p + 0.01 * (c - p) for p in raw], 12)))
+    assert sorted(map(tuple, np.round(mesh_walls._samples(t), 12))) == expected
+
+
+def test_a_thin_plate_glued_on_is_walled_and_the_budget_counts_what_it_says(monkeypatch):
+    """A 5 mm plate glued to a cube: solid on both sides of the shared face within :data:`OFFSET` (0.2 mm).  The
+    budget is candidates x 14 samples x the solid's triangles: at that count the walls are tested, one below not."""
+    va, fa = _cube([0, 0, 0], [1, 1, 1])
+    vb, fb = _cube([1, 0, 0], [1.005, 1, 1])
+    v, f = np.vstack([va, vb]), np.vstack([fa, fb + 8])
+    walls = _walls(v, f)
+    assert np.flatnonzero(walls).tolist() == [k for k in range(24) if np.allclose(v[f[k]][:, 0], 1.0)]
+    parts = solids(v, f)
+    cost = 4 * 14 * sum(len(pf) for _, pf in parts)
+    monkeypatch.setattr(mesh_walls, "WALL_TESTS", cost)
+    assert _walls(v, f).sum() == 4
+    monkeypatch.setattr(mesh_walls, "WALL_TESTS", cost - 1)
+    assert _walls(v, f).sum() == 0

@@ -62,7 +62,7 @@ def inner_walls(tri: NDArray[np.float64], parts: list[NDArray[np.float64]], dept
     """For each triangle of ``tri`` (F, 3, 3) [m], whether it is an inner wall of the solid made of the closed
     ``parts`` (their triangles, same frame) nested ``depths`` deep (module docstring)."""
     wall = np.zeros(len(tri), dtype=bool)
-    if not parts or len(tri) < 2:
+    if not parts:
         return wall
     candidates = _opposite_pairs(tri)
     if len(candidates) * 2 * len(_samples(tri[0])) * sum(len(p) for p in parts) > WALL_TESTS:
