@@ -40,8 +40,8 @@ KERNEL_SOURCES = (
     "jpl.py", "kinematics.py", "path.py", "planner/grazing.py", "planner/map.py", "planner/opening.py",
     "planner/potential.py", "planner/proximity.py", "planner/search.py", "self_contact.py", "sensing.py",
     "sim/_bullet.py", "sim/body.py", "sim/exact_distance.py", "sim/lipschitz.py", "sim/mesh_depth.py",
-    "sim/mesh_inside.py", "sim/mover_sweep.py", "sim/scene.py", "sim/servo.py", "urdf.py", "validate.py",
-    "world.py",
+    "sim/mesh_inside.py", "sim/mesh_walls.py", "sim/mover_sweep.py", "sim/scene.py", "sim/servo.py", "urdf.py",
+    "validate.py", "world.py",
 )
 """navstack's modules with numba kernels and every navstack module they import, transitively (paths relative
 to the package)."""
