@@ -30,8 +30,8 @@ OFFSET = 2.0 * WELD
 :data:`~navstack.sim.mesh_inside.WELD`; solids nearer each other than this across a gap count as glued there."""
 
 PLANE_TOLERANCE = 10.0 * WELD
-"""Two triangles lie in one plane, facing opposite ways, when their unit normals sum to at most this and their
-planes' offsets (the normal's dot product with the centroid, [m]) differ by at most this."""
+"""Two triangles lie in one plane, facing opposite ways, when the 4-vectors (unit normal, offset [m]: the normal's
+dot product with the centroid) of one and of the other turned round are at most this far apart (Euclidean)."""
 
 WALL_TESTS = 2e8
 """At most this many solid angles (candidate triangles x 14 samples x the solid's triangles, about 4 s) are
