@@ -14,7 +14,7 @@ import pytest
 from scipy.spatial import cKDTree
 
 from navstack.path import PathMemory
-from navstack.planner.escape import EscapeConfig, find_branch_point
+from navstack.planner.escape import EscapeConfig, Scanned, find_branch_point
 from navstack.planner.map import SensedMap
 from navstack.planner.potential import Repulsion
 from navstack.planner.search import NO_PATH, REACHED, Plan, SearchConfig, search
@@ -124,6 +124,76 @@ def test_a_cost_floor_spares_searches_but_not_the_answer():
     exact = FakeSearch(lambda p, t: True, path, cost=cost)
     s3, _ = find_branch_point(path, exact, CFG, cost_floor=cost)  # x = 0.70 .. 0.35: 0.1 + 1.0 >= 1.05, ...
     assert s3 == s and [round(float(p[0]), 6) for p, _ in exact.calls] == [0.75, 0.3]
+
+
+def test_candidates_to_skip_are_not_searched_and_count_as_no_way_on():
+    """``skip`` leaves out the candidates it names, the others searched as before (and the scan goes on past
+    them): here x = 0.70 .. 0.50 are skipped, the only way on from x <= 0.62 is then first found at x = 0.45."""
+    path = _straight_path(0.8)
+    s0 = path.start_arc_length
+    plain = FakeSearch(lambda p, t: p[0] <= 0.62, path)
+    skipping = FakeSearch(lambda p, t: p[0] <= 0.62, path)
+    s, _ = find_branch_point(path, plain, CFG)
+    s2, _ = find_branch_point(path, skipping, CFG, skip=lambda a: 0.5 - 1e-9 <= a - s0 <= 0.7 + 1e-9)
+    assert s - s0 == pytest.approx(0.60) and s2 - s0 == pytest.approx(0.45)
+    assert [round(a - s0, 6) for a in plain.arcs] == [0.75, 0.7, 0.65, 0.6]
+    assert [round(a - s0, 6) for a in skipping.arcs] == [0.75, 0.45]
+
+
+def test_a_scanned_stretch_covers_what_was_searched_while_goal_map_and_path_hold():
+    scanned = Scanned(goal=1, forgotten=3, cuts=2, lo=math.inf, hi=-math.inf, spent=False)
+    assert not scanned.covers(0.0)  # nothing searched yet
+    scanned.extend([0.9, 0.8, 0.7], spent=False)
+    assert (scanned.lo, scanned.hi, scanned.spent) == (0.7, 0.9, False)
+    assert scanned.covers(0.7) and scanned.covers(0.85) and scanned.covers(0.9)
+    assert not scanned.covers(0.69) and not scanned.covers(0.91)
+    scanned.extend([0.95], spent=True)  # the next scan's new candidate
+    assert (scanned.lo, scanned.hi, scanned.spent) == (0.7, 0.95, True)
+    scanned.extend([], spent=False)  # a scan that searched nothing new keeps both
+    assert (scanned.lo, scanned.hi, scanned.spent) == (0.7, 0.95, True)
+    assert scanned.holds(1, 3, 2)
+    assert not scanned.holds(2, 3, 2) and not scanned.holds(1, 4, 2) and not scanned.holds(1, 3, 3)
+
+
+def test_an_escape_searches_again_only_the_path_beyond_the_stretch_searched_in_vain():
+    """Following a fallback plan, every replan's escape scans back along the path: the candidates of a stretch an
+    earlier scan searched in vain are not searched again while the goal, the path behind and what the map has
+    forgotten hold; only the new path is.  A retreat or a look-back (the path cut), a point forgotten, or
+    another goal: the whole stretch again.  Every search here spends its budget (PARTIAL), as on
+    ``worlds/hard5/goal_far.json``, and the stall reason still says so."""
+    from navstack.planner.field import FieldPlanner
+    from navstack.planner.search import PARTIAL
+
+    pl = FieldPlanner((0.0, 0.0, 0.0), X, [(3.0, 0.0, 0.0), (3.5, 0.0, 0.0)], [0.02, 0.02])
+    for x in np.arange(0.001, 2.0 + 1e-9, 0.001):
+        pl.path.record([x, 0.0, 0.0])
+    arcs: list[float] = []
+
+    def spent(p, h, k, at=None, budget=None):
+        arcs.append(round(at - pl.path.start_arc_length, 6))
+        return _fake_plan(PARTIAL)
+
+    pl._plan_from = spent
+
+    def scan() -> list[float]:
+        arcs.clear()
+        pl._start_escape(fallback=pl.follower.plan)
+        assert pl.retreat is None and pl._wait is None and pl._budget_spent
+        return list(arcs)
+
+    first = scan()
+    assert first == [round(2.0 - 0.05 - 0.1 * i, 6) for i in range(15)]  # min_back 0.05 to max_back 1.5
+    assert scan() == []  # nothing new
+    for x in np.arange(2.001, 2.03 + 1e-9, 0.001):  # 3 cm on: one new candidate
+        pl.path.record([x, 0.0, 0.0])
+    assert scan() == [1.98]
+    pl.map._forgot(1)  # the map forgets a point: every candidate again
+    assert scan() == [round(2.03 - 0.05 - 0.1 * i, 6) for i in range(15)]
+    assert scan() == []
+    pl.look_backs += 1  # the path was cut (a retreat or look-back)
+    assert len(scan()) == 15 and scan() == []
+    pl.command_goal = 1  # another goal
+    assert len(scan()) == 15 and scan() == []
 
 
 def test_of_equal_totals_the_nearer_branch_point_is_kept():

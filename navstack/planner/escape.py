@@ -38,7 +38,7 @@ from navstack.path import PathMemory
 from navstack.planner.search import REACHED, Plan
 from navstack.validate import integer, non_negative, positive
 
-__all__ = ["TIE", "WAIT_ESCAPE_PERIODS", "EscapeConfig", "Wait", "find_branch_point"]
+__all__ = ["TIE", "WAIT_ESCAPE_PERIODS", "EscapeConfig", "Scanned", "Wait", "find_branch_point"]
 
 TIE = 1e-9
 """Totals (retreat plus plan cost) within this [m] of each other are equal: the nearer branch point is kept."""
@@ -89,7 +89,8 @@ class EscapeConfig:
 
 def find_branch_point(path: PathMemory, plan_from: Callable[[NDArray, NDArray, float], Plan],
                       config: EscapeConfig, before: float | None = None,
-                      cost_floor: Callable[[NDArray], float] | None = None) -> tuple[float, Plan] | None:
+                      cost_floor: Callable[[NDArray], float] | None = None,
+                      skip: Callable[[float], bool] | None = None) -> tuple[float, Plan] | None:
     """The arc length behind the end of ``path`` (and at or before ``before``), but not behind the tip's
     start, from which ``plan_from`` finds a complete way on (a plan through every goal) with the least
     retreat (from the end of ``path``) plus plan cost [m]; of totals within :data:`TIE`, the nearer one.
@@ -100,7 +101,8 @@ def find_branch_point(path: PathMemory, plan_from: Callable[[NDArray, NDArray, f
     a candidate whose retreat plus that bound cannot beat the best total so far is not searched.  The choice
     among the candidates searched is the same; but a search not made no longer refreshes what ``plan_from``
     may cache (the planner's navigation function), so a later search may differ in rare cases (none did on
-    the 140 validation trials of docs/speed.md, twenty-third round).
+    the 140 validation trials of docs/speed.md, twenty-third round).  A candidate at an arc length for which
+    ``skip(s)`` is true is not searched either (:class:`Scanned`: an earlier scan found no way on from there).
     """
     first = path.start_arc_length
     end = path.end_arc_length if before is None else min(path.end_arc_length, before + config.min_back)
@@ -113,8 +115,8 @@ def find_branch_point(path: PathMemory, plan_from: Callable[[NDArray, NDArray, f
         if retreat >= best_total:
             break  # no plan from farther back makes up for the longer retreat (a plan's cost is >= 0)
         p, t = path.point_at(s)
-        if cost_floor is not None and retreat + cost_floor(p) >= best_total - TIE:
-            plan = None  # could not beat the best total: not searched
+        if (cost_floor is not None and retreat + cost_floor(p) >= best_total - TIE) or (skip is not None and skip(s)):
+            plan = None  # could not beat the best total, or searched in vain before: not searched
         else:
             plan = plan_from(p, t, s)
         if plan is not None and plan.status == REACHED and retreat + plan.cost < best_total - TIE:
@@ -123,6 +125,51 @@ def find_branch_point(path: PathMemory, plan_from: Callable[[NDArray, NDArray, f
             break
         back += config.step
     return best
+
+
+@dataclass
+class Scanned:
+    """The stretch of the path behind the tip that escapes searched in vain (no candidate had a way on), while the
+    map only grew.
+
+    Following a partial plan ("explore": the search's budget spent), the planner searches for a branch point
+    again at every replan, every ``replan_period``.  Its candidates lie every ``step`` back from the path's end,
+    which has moved on a few centimetres since: most of them ask again what the last scan asked at nearly the same
+    point of the same path, in a map that has only gained points since.  So the candidates within the stretch
+    searched before are not searched again (:func:`find_branch_point`'s ``skip``), only the new path beyond it,
+    as long as the goal is the same, the path behind has not been cut (no retreat or look-back since) and the
+    map has forgotten nothing (what forgetting removes may open a way).  Measured on ``worlds/hard5/goal_far.json``
+    (only the arm blocks the way; every search spends its budget), where the scans were 15 of the 17 searches
+    of a replan: docs/speed.md, twenty-sixth round.
+
+    Attributes:
+        goal: the goal the scans were for.
+        forgotten: the map's count of forgotten points then.
+        cuts: the planner's retreats plus look-backs then (each cuts the path).
+        lo, hi: the least and greatest arc length searched [m].
+        spent: a search of the scans spent its budget (rather than finding every way closed).
+    """
+
+    goal: int
+    forgotten: int
+    cuts: int
+    lo: float
+    hi: float
+    spent: bool
+
+    def holds(self, goal: int, forgotten: int, cuts: int) -> bool:
+        """Whether the scans still count: the same goal, nothing forgotten, the path not cut since."""
+        return (goal, forgotten, cuts) == (self.goal, self.forgotten, self.cuts)
+
+    def covers(self, s: float) -> bool:
+        """Whether arc length ``s`` [m] lies in the stretch searched."""
+        return self.lo - TIE <= s <= self.hi + TIE
+
+    def extend(self, searched: list[float], spent: bool) -> None:
+        """Add a scan's searched arc lengths [m] (the new stretch next to the old one)."""
+        if searched:
+            self.lo, self.hi = min(self.lo, *searched), max(self.hi, *searched)
+        self.spent = self.spent or spent
 
 
 @dataclass

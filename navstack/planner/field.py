@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from navstack.estimate import RangeEstimate
 from navstack.path import PathMemory
-from navstack.planner.escape import EscapeConfig, Wait
+from navstack.planner.escape import EscapeConfig, Scanned, Wait
 from navstack.planner.map import MapConfig, SensedMap
 from navstack.planner.opening import OpeningConfig, far_rays, find_opening
 from navstack.planner.own_arm import OwnArmConfig, turns_into_arm
@@ -254,6 +254,7 @@ class FieldPlanner(Recovery):
         self._command_goal_s = 0.0
         self._last_branch: float | None = None
         self._wait: Wait | None = None  # boxed in, waiting for the map to change
+        self._scanned: Scanned | None = None  # the stretch of path escapes searched in vain
         self._budget_spent = False  # the last escape's searches spent their budget (not boxed in: the stall reason)
         self._goal_look_backs: dict[int, int] = {}
         self.look_backs = 0

@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from navstack.path import MIN_ARC, PathMemory
-from navstack.planner.escape import WAIT_ESCAPE_PERIODS, Wait, find_branch_point
+from navstack.planner.escape import WAIT_ESCAPE_PERIODS, Scanned, Wait, find_branch_point
 from navstack.planner.map import SensedMap
 from navstack.planner.search import NO_PATH, PARTIAL, REACHED, Plan
 from navstack.planner.steering import PlanFollower
@@ -60,6 +60,7 @@ class Recovery:
     _pending: tuple[float, Plan | Wait] | None
     _budget_spent: bool  # a search of the last escape (or its fallback) spent its budget without a way on
     _wait: Wait | None
+    _scanned: Scanned | None  # the stretch of path escapes searched in vain (for the same goal, path and map)
     _goal_retreats: dict[int, int]
     _goal_look_backs: dict[int, int]
     _last_branch: float | None
@@ -99,16 +100,27 @@ class Recovery:
         if self._last_branch is not None and limit - self._last_branch < 0.3:
             limit = self._last_branch - self.config.escape.step
         spent: list[bool] = []
+        searched: list[float] = []
+        scanned = self._scanned_before()
 
         def plan_at(p: NDArray[np.float64], h: NDArray[np.float64], at: float) -> Plan:
             plan = self._plan_from(p, h, self.command_goal, at)
             spent.append(plan.status == PARTIAL)
+            searched.append(at)
             return plan
 
         found = find_branch_point(self.path, plan_at, self.config.escape, before=limit,
-                                  cost_floor=lambda p: self._cost_floor(p, self.command_goal))
-        self._budget_spent = any(spent) or (fallback is not None and fallback.status == PARTIAL)
+                                  cost_floor=lambda p: self._cost_floor(p, self.command_goal),
+                                  skip=None if scanned is None else scanned.covers)
+        self._budget_spent = (any(spent) or (scanned is not None and scanned.spent)
+                              or (fallback is not None and fallback.status == PARTIAL))
+        self._scanned = None
         if found is None:
+            if scanned is None:
+                scanned = Scanned(self.command_goal, self.map.forgotten, self.retreats + self.look_backs,
+                                  math.inf, -math.inf, False)
+            scanned.extend(searched, any(spent))
+            self._scanned = scanned
             if fallback is not None:
                 self.follower = PlanFollower(fallback, self.config.steering, self.follower.v)
             elif self.config.escape.patience > 0:
@@ -129,6 +141,13 @@ class Recovery:
         self._pending = (s, plan)
         self.retreat = Retreat(self.path, s, self.config.escape.speed, self.config.escape.accel)
         self.mode = "retreat"
+
+    def _scanned_before(self) -> Scanned | None:
+        """The stretch of path earlier escapes searched in vain, if it still counts (:class:`Scanned`)."""
+        scanned = self._scanned
+        if scanned is None or not scanned.holds(self.command_goal, self.map.forgotten, self.retreats + self.look_backs):
+            return None
+        return scanned
 
     def _boxed_in(self) -> str:
         """Why no way on was found (the last escape's searches): boxed in, or a search spent its budget."""
