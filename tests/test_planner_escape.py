@@ -141,7 +141,7 @@ def test_candidates_to_skip_are_not_searched_and_count_as_no_way_on():
 
 
 def test_a_scanned_stretch_covers_what_was_searched_while_goal_map_and_path_hold():
-    scanned = Scanned(goal=1, forgotten=3, cuts=2, lo=math.inf, hi=-math.inf, spent=False)
+    scanned = Scanned(goal=1, version=3, cuts=2, lo=math.inf, hi=-math.inf, spent=False)
     assert not scanned.covers(0.0)  # nothing searched yet
     scanned.extend([0.9, 0.8, 0.7], spent=False)
     assert (scanned.lo, scanned.hi, scanned.spent) == (0.7, 0.9, False)
@@ -157,9 +157,9 @@ def test_a_scanned_stretch_covers_what_was_searched_while_goal_map_and_path_hold
 
 def test_an_escape_searches_again_only_the_path_beyond_the_stretch_searched_in_vain():
     """Following a fallback plan, every replan's escape scans back along the path: the candidates of a stretch an
-    earlier scan searched in vain are not searched again while the goal, the path behind and what the map has
-    forgotten hold; only the new path is.  A retreat or a look-back (the path cut), a point forgotten, or
-    another goal: the whole stretch again.  Every search here spends its budget (PARTIAL), as on
+    earlier scan searched in vain are not searched again while the goal, the path behind and the map hold; only
+    the new path is.  A retreat or a look-back (the path cut), a point added to the map, or another goal: the whole
+    stretch again.  Every search here spends its budget (PARTIAL), as on
     ``worlds/hard5/goal_far.json``, and the stall reason still says so."""
     from navstack.planner.field import FieldPlanner
     from navstack.planner.search import PARTIAL
@@ -187,7 +187,7 @@ def test_an_escape_searches_again_only_the_path_beyond_the_stretch_searched_in_v
     for x in np.arange(2.001, 2.03 + 1e-9, 0.001):  # 3 cm on: one new candidate
         pl.path.record([x, 0.0, 0.0])
     assert scan() == [1.98]
-    pl.map._forgot(1)  # the map forgets a point: every candidate again
+    pl.map.add_points([[2.5, 1.0, 0.0]])  # the map changes: every candidate again
     assert scan() == [round(2.03 - 0.05 - 0.1 * i, 6) for i in range(15)]
     assert scan() == []
     pl.look_backs += 1  # the path was cut (a retreat or look-back)

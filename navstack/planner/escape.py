@@ -129,37 +129,39 @@ def find_branch_point(path: PathMemory, plan_from: Callable[[NDArray, NDArray, f
 
 @dataclass
 class Scanned:
-    """The stretch of the path behind the tip that escapes searched in vain (no candidate had a way on), while the
-    map only grew.
+    """The stretch of the path behind the tip that escapes searched in vain (no candidate had a way on) in the map
+    as it is now.
 
     Following a partial plan ("explore": the search's budget spent), the planner searches for a branch point
     again at every replan, every ``replan_period``.  Its candidates lie every ``step`` back from the path's end,
-    which has moved on a few centimetres since: most of them ask again what the last scan asked at nearly the same
-    point of the same path, in a map that has only gained points since.  So the candidates within the stretch
-    searched before are not searched again (:func:`find_branch_point`'s ``skip``), only the new path beyond it,
-    as long as the goal is the same, the path behind has not been cut (no retreat or look-back since) and the
-    map has forgotten nothing (what forgetting removes may open a way).  Measured on ``worlds/hard5/goal_far.json``
-    (only the arm blocks the way; every search spends its budget), where the scans were 15 of the 17 searches
-    of a replan: docs/speed.md, twenty-sixth round.
+    which has moved on a few centimetres since.  While the map has not changed (its ``version``: no point added,
+    moved or forgotten), most of them ask again what the last scan asked at nearly the same point of the same path
+    in the same map; so the candidates within the stretch searched before are not searched again
+    (:func:`find_branch_point`'s ``skip``), only the new path beyond it, as long as the goal is the same and the
+    path behind has not been cut (no retreat or look-back since).  Once the map has changed, every candidate is
+    searched again: a candidate whose search spent its budget may find a way in a map grown by a few points (a
+    scan skipping it in a grown map lost a branch point on ``worlds/hard5/far_slot.json``).  Measured on
+    ``worlds/hard5/goal_far.json`` (only the arm blocks the way; every search spends its budget): docs/speed.md,
+    thirty-fifth round.
 
     Attributes:
         goal: the goal the scans were for.
-        forgotten: the map's count of forgotten points then.
+        version: the map's version then.
         cuts: the planner's retreats plus look-backs then (each cuts the path).
         lo, hi: the least and greatest arc length searched [m].
         spent: a search of the scans spent its budget (rather than finding every way closed).
     """
 
     goal: int
-    forgotten: int
+    version: int
     cuts: int
     lo: float
     hi: float
     spent: bool
 
-    def holds(self, goal: int, forgotten: int, cuts: int) -> bool:
-        """Whether the scans still count: the same goal, nothing forgotten, the path not cut since."""
-        return (goal, forgotten, cuts) == (self.goal, self.forgotten, self.cuts)
+    def holds(self, goal: int, version: int, cuts: int) -> bool:
+        """Whether the scans still count: the same goal, the same map, the path not cut since."""
+        return (goal, version, cuts) == (self.goal, self.version, self.cuts)
 
     def covers(self, s: float) -> bool:
         """Whether arc length ``s`` [m] lies in the stretch searched."""

@@ -117,7 +117,7 @@ class Recovery:
         self._scanned = None
         if found is None:
             if scanned is None:
-                scanned = Scanned(self.command_goal, self.map.forgotten, self.retreats + self.look_backs,
+                scanned = Scanned(self.command_goal, self.map.version, self.retreats + self.look_backs,
                                   math.inf, -math.inf, False)
             scanned.extend(searched, any(spent))
             self._scanned = scanned
@@ -145,7 +145,7 @@ class Recovery:
     def _scanned_before(self) -> Scanned | None:
         """The stretch of path earlier escapes searched in vain, if it still counts (:class:`Scanned`)."""
         scanned = self._scanned
-        if scanned is None or not scanned.holds(self.command_goal, self.map.forgotten, self.retreats + self.look_backs):
+        if scanned is None or not scanned.holds(self.command_goal, self.map.version, self.retreats + self.look_backs):
             return None
         return scanned
 
