@@ -10,7 +10,7 @@ Usage: python make.py [name ...]   (writes <this folder>/<name>.json and parts/*
 import json, math, sys, os
 import numpy as np
 import trimesh
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'hard5'))  # hard5's geom.py
 from geom import MeshDist
 from scipy.spatial.transform import Rotation as Rot
 
