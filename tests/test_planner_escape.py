@@ -170,7 +170,8 @@ def test_an_escape_searches_again_only_the_path_beyond_the_stretch_searched_in_v
     arcs: list[float] = []
 
     def spent(p, h, k, at=None, budget=None):
-        arcs.append(round(at - pl.path.start_arc_length, 6))
+        if budget is None:  # (not the deeper searches of a scan that found nothing: tested below)
+            arcs.append(round(at - pl.path.start_arc_length, 6))
         return _fake_plan(PARTIAL)
 
     pl._plan_from = spent
@@ -194,6 +195,63 @@ def test_an_escape_searches_again_only_the_path_beyond_the_stretch_searched_in_v
     assert len(scan()) == 15 and scan() == []
     pl.command_goal = 1  # another goal
     assert len(scan()) == 15 and scan() == []
+
+
+def test_candidates_whose_search_spent_its_budget_are_searched_deeper_before_exploring_on():
+    """An escape whose candidates' searches all spent their budget (PARTIAL) searches them once more with
+    FieldPlannerConfig.deep_budget, and backs out to a branch point found so rather than following the partial
+    plan from the tip ("explore") into a pocket (worlds/hard6/corner_late.json: the planner explored on in front
+    of a wall's end, every escape's searches spent, and stalled without backing out; the way round the end from
+    0.1-0.35 m back took 11-19 thousand expansions, the budget 8000).  Candidates boxed in (NO_PATH) are not
+    searched again; the deeper scan is made once per goal and escape count; deep_budget 0: never."""
+    from dataclasses import replace
+
+    from navstack.planner.field import FieldPlanner, FieldPlannerConfig
+    from navstack.planner.search import PARTIAL
+
+    def planner(config=None, deep_finds=lambda at: True):
+        pl = FieldPlanner((0.0, 0.0, 0.0), X, [(3.0, 0.0, 0.0)], [0.02], config=config)
+        for x in np.arange(0.001, 1.0 + 1e-9, 0.001):
+            pl.path.record([x, 0.0, 0.0])
+        calls: list[tuple[float, int | None]] = []
+
+        def plan_from(p, h, k, at=None, budget=None):
+            back = round(pl.path.end_arc_length - at, 6)
+            calls.append((back, budget))
+            if back < 0.3:
+                return _fake_plan(NO_PATH)  # boxed in near the tip
+            if budget is None or not deep_finds(back):
+                return _fake_plan(PARTIAL, 2.0)  # the budget spent
+            return _fake_plan(REACHED, 2.0)
+
+        pl._plan_from = plan_from
+        return pl, calls
+
+    cfg = FieldPlannerConfig()
+    pl, calls = planner()
+    pl._start_escape(fallback=pl.follower.plan)
+    assert pl.retreat is not None and pl.mode == "retreat" and pl.retreats == 1  # backs out ...
+    assert pl._pending[0] == pytest.approx(pl.path.end_arc_length - 0.35)  # ... to the nearest such point
+    normal = [back for back, budget in calls if budget is None]
+    deep = [back for back, budget in calls if budget is not None]
+    assert normal == [round(0.05 + 0.1 * i, 6) for i in range(10)] + [1.0]  # every candidate, to the path's start
+    assert deep == [0.35] and {budget for _, budget in calls} == {None, cfg.deep_budget}
+    # (0.05-0.25 boxed in: not searched again; from 0.45 on the retreat alone exceeds 0.35 + 2.0: not searched)
+
+    pl, calls = planner(deep_finds=lambda back: False)  # the deeper searches find nothing either
+    fallback = pl.follower.plan
+    pl._start_escape(fallback=fallback)
+    assert pl.retreat is None and pl.follower.plan is fallback  # explores on along the partial plan
+    deep = [back for back, budget in calls if budget is not None]
+    assert deep == [round(0.35 + 0.1 * i, 6) for i in range(7)] + [1.0]
+    calls.clear()
+    pl.map.add_points([[2.5, 1.0, 0.0]])  # (the map changed: every candidate searched again, not Scanned's skip)
+    pl._start_escape(fallback=pl.follower.plan)  # the same goal, no retreat since: no deeper scan again
+    assert calls and all(budget is None for _, budget in calls) and pl.retreat is None
+
+    pl, calls = planner(replace(cfg, deep_budget=0))  # no deeper budget: as before
+    pl._start_escape(fallback=pl.follower.plan)
+    assert pl.retreat is None and all(budget is None for _, budget in calls)
 
 
 def test_of_equal_totals_the_nearer_branch_point_is_kept():

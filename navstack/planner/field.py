@@ -234,6 +234,7 @@ class FieldPlanner(Recovery):
         """Goals the command itself has passed (within the search's reach of them), in order."""
         self._goal_retreats: dict[int, int] = {}
         self._deep_done: tuple[int, int] | None = None  # (goal, its escapes) of the last deeper search
+        self._deep_escape_done: tuple[int, int] | None = None  # (goal, its escapes) of the last deeper escape scan
         self.tight_plans = 0  # plans found only with FieldPlannerConfig.tight_margin
         self._rays: tuple | None = None  # the last reading's rays as fused (origins, directions, ranges, informative)
         self.opening_plans = 0  # plans kept through a seen opening

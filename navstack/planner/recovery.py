@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -62,6 +63,7 @@ class Recovery:
     _wait: Wait | None
     _scanned: Scanned | None  # the stretch of path escapes searched in vain (for the same goal, path and map)
     _goal_retreats: dict[int, int]
+    _deep_escape_done: tuple[int, int] | None  # (goal, its retreats) of the last deeper escape scan
     _goal_look_backs: dict[int, int]
     _last_branch: float | None
     _planned_at: float
@@ -109,9 +111,14 @@ class Recovery:
             searched.append(at)
             return plan
 
-        found = find_branch_point(self.path, plan_at, self.config.escape, before=limit,
-                                  cost_floor=lambda p: self._cost_floor(p, self.command_goal),
+        cost_floor = lambda p: self._cost_floor(p, self.command_goal)  # noqa: E731
+        found = find_branch_point(self.path, plan_at, self.config.escape, before=limit, cost_floor=cost_floor,
                                   skip=None if scanned is None else scanned.covers)
+        if found is None:  # a candidate's search may only have spent its budget
+            partial = {s for s, sp in zip(searched, spent, strict=True) if sp}
+            earlier = scanned if scanned is not None and scanned.spent else None  # (skipped: searched before)
+            found = self._deep_branch_point(
+                limit, lambda s: s in partial or (earlier is not None and earlier.covers(s)), cost_floor)
         self._budget_spent = (any(spent) or (scanned is not None and scanned.spent)
                               or (fallback is not None and fallback.status == PARTIAL))
         self._scanned = None
@@ -141,6 +148,35 @@ class Recovery:
         self._pending = (s, plan)
         self.retreat = Retreat(self.path, s, self.config.escape.speed, self.config.escape.accel)
         self.mode = "retreat"
+
+    def _deep_branch_point(self, limit: float, spent: Callable[[float], bool],
+                           cost_floor: Callable[[NDArray[np.float64]], float]) -> tuple[float, Plan] | None:
+        """An escape's scan found no branch point, but the searches at some candidates (the arc lengths [m] where
+        ``spent``) only spent their budget: those candidates searched once more with
+        ``FieldPlannerConfig.deep_budget`` expansions (:func:`find_branch_point` as before, the other candidates
+        skipped), once per goal and escape count (the planner's retreats for that goal), before following the
+        partial plan from the tip ("explore"), or waiting boxed in.  A way on from back along the path that a
+        deeper search finds is taken rather than a partial plan onwards.  Without it, on
+        ``worlds/hard6/corner_late.json`` (all 3 seeds) the partial plans led the tip on into the pocket in
+        front of a wall's end, where it could no longer turn round the end; every escape's searches spent
+        their budget at every candidate (the way round from 0.1-0.35 m back took 11-19 thousand expansions, the
+        budget being 8000), and once boxed in it waited and stalled, never backing out.  None if that finds
+        none (or it is not due, or there is no deeper budget)."""
+        cfg = self.config
+        key = (self.command_goal, self._goal_retreats.get(self.command_goal, 0))
+        if cfg.deep_budget <= cfg.search.max_expansions or key == self._deep_escape_done:
+            return None
+        tried: list[float] = []
+
+        def deep(p: NDArray[np.float64], h: NDArray[np.float64], at: float) -> Plan:
+            tried.append(at)
+            return self._plan_from(p, h, self.command_goal, at, budget=cfg.deep_budget)
+
+        found = find_branch_point(self.path, deep, cfg.escape, before=limit, cost_floor=cost_floor,
+                                  skip=lambda s: not spent(s))
+        if tried:
+            self._deep_escape_done = key
+        return found
 
     def _scanned_before(self) -> Scanned | None:
         """The stretch of path earlier escapes searched in vain, if it still counts (:class:`Scanned`)."""
