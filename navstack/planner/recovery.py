@@ -111,7 +111,9 @@ class Recovery:
             searched.append(at)
             return plan
 
-        cost_floor = lambda p: self._cost_floor(p, self.command_goal)  # noqa: E731
+        def cost_floor(p: NDArray[np.float64]) -> float:
+            return self._cost_floor(p, self.command_goal)
+
         found = find_branch_point(self.path, plan_at, self.config.escape, before=limit, cost_floor=cost_floor,
                                   skip=None if scanned is None else scanned.covers)
         if found is None:  # a candidate's search may only have spent its budget
