@@ -203,7 +203,8 @@ def test_candidates_whose_search_spent_its_budget_are_searched_deeper_before_exp
     plan from the tip ("explore") into a pocket (worlds/hard6/corner_late.json: the planner explored on in front
     of a wall's end, every escape's searches spent, and stalled without backing out; the way round the end from
     0.1-0.35 m back took 11-19 thousand expansions, the budget 8000).  Candidates boxed in (NO_PATH) are not
-    searched again; the deeper scan is made once per goal and escape count; deep_budget 0: never."""
+    searched again; the deeper scan is made once per goal and escape count, from deep_escape_after_retreats
+    escapes on (1: not before the first); deep_budget 0: never."""
     from dataclasses import replace
 
     from navstack.planner.field import FieldPlanner, FieldPlannerConfig
@@ -227,8 +228,16 @@ def test_candidates_whose_search_spent_its_budget_are_searched_deeper_before_exp
         pl._plan_from = plan_from
         return pl, calls
 
-    cfg = FieldPlannerConfig()
+    pl, calls = planner()  # the defaults: no deeper scan before the first escape for the goal
+    pl._start_escape(fallback=pl.follower.plan)
+    assert pl.retreat is None and calls and all(budget is None for _, budget in calls)
     pl, calls = planner()
+    pl._goal_retreats[0] = 1  # ... and after it
+    pl._start_escape(fallback=pl.follower.plan)
+    assert pl.retreat is not None and [b for _, b in calls if b is not None] == [FieldPlannerConfig().deep_budget]
+
+    cfg = FieldPlannerConfig(deep_escape_after_retreats=0)
+    pl, calls = planner(cfg)
     pl._start_escape(fallback=pl.follower.plan)
     assert pl.retreat is not None and pl.mode == "retreat" and pl.retreats == 1  # backs out ...
     assert pl._pending[0] == pytest.approx(pl.path.end_arc_length - 0.35)  # ... to the nearest such point
@@ -238,7 +247,7 @@ def test_candidates_whose_search_spent_its_budget_are_searched_deeper_before_exp
     assert deep == [0.35] and {budget for _, budget in calls} == {None, cfg.deep_budget}
     # (0.05-0.25 boxed in: not searched again; from 0.45 on the retreat alone exceeds 0.35 + 2.0: not searched)
 
-    pl, calls = planner(deep_finds=lambda back: False)  # the deeper searches find nothing either
+    pl, calls = planner(cfg, deep_finds=lambda back: False)  # the deeper searches find nothing either
     fallback = pl.follower.plan
     pl._start_escape(fallback=fallback)
     assert pl.retreat is None and pl.follower.plan is fallback  # explores on along the partial plan

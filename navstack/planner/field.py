@@ -84,6 +84,12 @@ class FieldPlannerConfig:
         deep_after_retreats: escapes (backing out) for the current goal before a spent budget earns the deeper
             search (a rack's slot can need it; most failed searches are settled by the first escapes, and a
             deeper search that fails costs 2.5 times the budget); then once per escape.
+        deep_escape_after_retreats: escapes for the current goal before an escape whose scan found no branch point
+            searches its budget-spent candidates once more with ``deep_budget`` (:mod:`~navstack.planner.recovery`;
+            then once per escape).  Not before the first: early on, with little of the map seen, a deeper search
+            finds ways through space nobody has looked at, and backing out to take one cost a sliding-door trial
+            the door's opening (`sliding-door` d0.5 #6 of the README's validation set, seed 8181: reached ->
+            stalled with the deeper scan at once).
         path_spacing: vertex spacing of the record of the commanded path: the controller's [m].
         nav_period: the navigation function is recomputed at least this often while the map
             changes [s] (and whenever the next goal changes, or a search fails with the old one).
@@ -114,6 +120,7 @@ class FieldPlannerConfig:
     improve_budget: int = 1500
     deep_budget: int = 20000
     deep_after_retreats: int = 2
+    deep_escape_after_retreats: int = 1
     tight_margin: float | None = 0.005
 
     def __post_init__(self) -> None:
@@ -124,7 +131,7 @@ class FieldPlannerConfig:
         positive(self, "replan_period", "horizon", "ray_start", "urgent_margin", "nav_period", "path_spacing")
         non_negative(self, "tight_margin", none_ok=True)
         integer(self, "improve_budget", lo=1)
-        integer(self, "deep_budget", "deep_after_retreats", lo=0)
+        integer(self, "deep_budget", "deep_after_retreats", "deep_escape_after_retreats", lo=0)
 
 
 def _vec3(v: ArrayLike, name: str) -> NDArray[np.float64]:

@@ -156,7 +156,8 @@ class Recovery:
         """An escape's scan found no branch point, but the searches at some candidates (the arc lengths [m] where
         ``spent``) only spent their budget: those candidates searched once more with
         ``FieldPlannerConfig.deep_budget`` expansions (:func:`find_branch_point` as before, the other candidates
-        skipped), once per goal and escape count (the planner's retreats for that goal), before following the
+        skipped), once per goal and escape count (the planner's retreats for that goal) from
+        ``FieldPlannerConfig.deep_escape_after_retreats`` escapes on, before following the
         partial plan from the tip ("explore"), or waiting boxed in.  A way on from back along the path that a
         deeper search finds is taken rather than a partial plan onwards.  Without it, on
         ``worlds/hard6/corner_late.json`` (all 3 seeds) the partial plans led the tip on into the pocket in
@@ -166,7 +167,8 @@ class Recovery:
         none (or it is not due, or there is no deeper budget)."""
         cfg = self.config
         key = (self.command_goal, self._goal_retreats.get(self.command_goal, 0))
-        if cfg.deep_budget <= cfg.search.max_expansions or key == self._deep_escape_done:
+        if cfg.deep_budget <= cfg.search.max_expansions or key == self._deep_escape_done \
+                or key[1] < cfg.deep_escape_after_retreats:
             return None
         tried: list[float] = []
 
