@@ -18,7 +18,7 @@ h5 = sys.modules['hard5_make'] = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(h5)
 h5.OUT = OUT = HERE
 from hard5_make import (P0, X0, Y0, Z0, Q0, BASE, UP, DOWN, LEFT, RIGHT, EX, unit, Path, S_curve,  # noqa: E402
-                        box, cyl, sph, frame_box, plate_hole, sdf, seg, check, write_mesh, ring_faces)
+                        box, cyl, sph, frame_box, plate_hole, sdf, seg, check, write_mesh, ring_faces, rnd)
 
 W = {}
 def world(fn): W[fn.__name__] = fn; return fn
@@ -368,14 +368,6 @@ def bay_tour():
             "bay B 0.45-0.85 m ahead, open only towards A and below where bay C is; bay C 0.65-0.95 m ahead and 0.15-0.45 m "
             "below the line, open only on top. Goals: one in each bay (A, B, C, in that order). Way: 50 deg left into A through its side, "
             "50 deg right into B, dive 90 deg into C from above."), obs, [g1, g2, g3], path, {"expected": "reached 3/3"}
-
-
-def rnd(x):
-    if isinstance(x, dict): return {k: rnd(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)): return [rnd(v) for v in x]
-    if isinstance(x, (float, np.floating)): return round(float(x), 7)
-    if isinstance(x, np.ndarray): return rnd(x.tolist())
-    return x
 
 
 def write(name):
