@@ -479,6 +479,9 @@ def test_a_spent_budget_earns_one_deeper_search_only_after_escapes_for_the_goal(
         FieldPlannerConfig(deep_budget=-1)
     with pytest.raises(ValueError, match="deep_after_retreats"):
         FieldPlannerConfig(deep_after_retreats=1.5)
+    for bad in (-1, 1.5, True, "1"):  # the escape's deeper scan's threshold, named in the message
+        with pytest.raises(ValueError, match="deep_escape_after_retreats must be an integer >= 0"):
+            FieldPlannerConfig(deep_escape_after_retreats=bad)
 
 
 def test_the_larger_goal_ball_is_tried_again_from_the_robot_not_from_each_branch_point(monkeypatch):
