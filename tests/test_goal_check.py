@@ -3,6 +3,7 @@ as the independent judge of the claim, meshes, moving obstacles, and the warning
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -15,7 +16,7 @@ from pybullet_utils.bullet_client import BulletClient
 from scipy.spatial.transform import Rotation
 
 from navstack.cli import main
-from navstack.goal_check import blocked_goals
+from navstack.goal_check import _mesh_signed_distance, blocked_goals
 from navstack.world import world_from_dict
 
 R_S = 0.025  # the paper robot's serpentine radius (m)
@@ -45,6 +46,42 @@ def test_a_goal_is_blocked_exactly_when_its_tolerance_ball_has_no_point_a_tip_ra
     assert [(b.goal, b.obstacle) for b in found] == ([(1, 1)] if blocked else [])
     if blocked:
         assert found[0].distance == pytest.approx(-depth, abs=1e-12)
+
+
+def test_the_bound_itself_is_blocked_and_a_world_with_one_goal_is_checked():
+    """d + tolerance == serpentine radius, exactly (the goal on the box's face, tolerance = R_S): blocked, the
+    bound being attained; and a world whose only goal is buried is warned of too."""
+    goal = np.round(GOAL * 64.0) / 64.0  # binary fractions: the face and the distance come out exact
+    box = {"type": "box", "center": (goal - [0.125, 0.0, 0.0]).tolist(), "half_extents": [0.125, 0.25, 0.25]}
+    data = world_with(box, goal=goal, tolerance=R_S)
+    found = blocked_goals(world_from_dict(data))
+    assert [(b.goal, b.obstacle) for b in found] == [(1, 1)] and found[0].distance == 0.0  # exactly on the face
+    assert "lies 0.000 m from obstacles[1] (a box)" in found[0].message(world_from_dict(data))  # not "inside"
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        found[0].distance = -1.0
+    data["goals"] = data["goals"][1:]  # the buried goal alone
+    assert [(b.goal, b.obstacle, b.distance) for b in blocked_goals(world_from_dict(data))] == [(0, 1, 0.0)]
+
+
+def test_a_moving_obstacle_listed_first_does_not_hide_a_static_one_after_it():
+    moving = dict(box_at(0.1), motion={"type": "linear", "velocity": [0.0, 0.0, 0.1]})
+    data = world_with(moving)
+    data["obstacles"] += [box_at(0.05)]
+    found = blocked_goals(world_from_dict(data))
+    assert [(b.goal, b.obstacle) for b in found] == [(1, 2)]
+    assert found[0].distance == pytest.approx(-0.05, abs=1e-12)
+
+
+def test_the_warning_names_the_goal_where_it_is_and_how_far_inside_or_outside():
+    goal = GOAL + [0.00012, 0.0, 0.0]  # a position with more than 3 decimals
+    for depth, where in ((0.1, "lies 0.100 m inside obstacles[1] (a box)"),
+                         (-0.004, "lies 0.004 m from obstacles[1] (a box)")):
+        obstacle = {"type": "box", "center": (goal + [depth - 0.1, 0, 0]).tolist(), "half_extents": [0.1, 0.2, 0.2]}
+        world = world_from_dict(world_with(obstacle, goal=goal))
+        (b,) = blocked_goals(world)
+        text = b.message(world)
+        assert text.startswith(f"goals[1] at {np.round(goal, 3).tolist()} {where}: "), text
+        assert "with a tolerance of 0.02 m and a serpentine radius of 0.025 m" in text
 
 
 @pytest.mark.parametrize("obstacle, depth", [
@@ -122,6 +159,28 @@ def test_mesh_distances_inside_a_closed_mesh_and_near_an_open_one(tmp_path):
             found = blocked_goals(world_from_dict(data))
             want = expected if name == "box.stl" or gap > 0 else []  # no inside: 0.03 m from the surface
             assert [pytest.approx(b.distance, abs=1e-6) for b in found] == want, (name, gap)
+
+
+def test_mesh_distances_of_a_mesh_off_its_own_origin(tmp_path):
+    """A box mesh whose vertices lie off its frame's origin (so no symmetry of the frame hides a sign error),
+    turned by rpy: a goal ``gap`` m off its -x face, or inside it, is at the signed distance the rule needs."""
+    offset = np.array([0.5, -0.3, 0.2])  # the box's centre in the mesh's own frame
+    box = trimesh.creation.box(extents=[0.4, 0.4, 0.4])
+    box.apply_translation(offset)
+    box.export(tmp_path / "off.stl")
+    rpy = np.array([0.3, -0.2, 0.5])
+    R = Rotation.from_euler("xyz", rpy).as_matrix()
+    for gap, expected in ((0.0049, [0.0049]), (0.0051, []), (-0.03, [-0.03]), (-0.2, [-0.2])):
+        position = GOAL - R @ (offset + [-(0.2 + gap), 0.0, 0.0])  # the goal gap m off the -x face, outward
+        data = world_with({"type": "mesh", "path": str(tmp_path / "off.stl"), "position": position.tolist(),
+                           "rpy": rpy.tolist()})
+        found = blocked_goals(world_from_dict(data))
+        assert [pytest.approx(b.distance, abs=1e-6) for b in found] == expected, gap
+    # only points within `within` of the mesh's box are measured; the rest are +inf, unmeasured
+    mesh = world_from_dict(data).obstacles[1]
+    points = np.array([GOAL, GOAL + R @ [-0.7, 0.0, 0.0], GOAL + R @ [0.0, 0.0, 3.0]])  # 0.5 and 2.8 m off
+    d = _mesh_signed_distance(mesh, points, np.array([0.01, 0.01, 1.0]))
+    assert d[0] == pytest.approx(-0.2, abs=1e-6) and np.isinf(d[1:]).all() and (d[1:] > 0).all()
 
 
 def test_check_world_and_run_warn_but_do_not_refuse(tmp_path: Path, capsys):
