@@ -30,6 +30,7 @@ from navstack.sim.servo import ServoConfig
 from navstack.trial import TrialConfig
 from navstack.urdf import UrdfOptions
 from navstack.validate import (
+    MAX_SEED,
     finite,
     flag,
     in_range,
@@ -37,6 +38,7 @@ from navstack.validate import (
     integer,
     is_integer,
     is_number,
+    is_seed,
     non_negative,
     positive,
 )
@@ -73,6 +75,14 @@ def test_is_number_and_is_integer():
         assert not is_integer(v), v
 
 
+def test_is_seed_is_an_integer_from_0_to_2_63_minus_1():
+    assert MAX_SEED == 9223372036854775807  # int64's largest: what readers of result.json and results.jsonl hold
+    for v in [0, 1, 2**62, MAX_SEED, np.int64(MAX_SEED), np.uint8(0)]:
+        assert is_seed(v), v
+    for v in [-1, np.int64(-1), MAX_SEED + 1, 2**64, 10**30, 0.5, 1.0, True, "1", None]:
+        assert not is_seed(v), v
+
+
 # --------------------------------------------------------------------------- positive
 @pytest.mark.parametrize("value", [1, 0.5, 1e-300, 1e300, *NUMPY_NUMBERS])
 def test_positive_accepts_positive_numbers_and_keeps_them_as_given(value):
@@ -89,7 +99,7 @@ def test_positive_refuses_everything_else(value):
 def test_positive_with_inf_ok():
     for value in [math.inf, 10**400, np.float64("inf"), 0.5]:
         positive(Cfg(value), "x", inf_ok=True)
-    for value in [math.nan, -math.inf, 0.0, -1.0, "inf", True, None]:
+    for value in [math.nan, -math.inf, -(10**400), 0.0, -1.0, "inf", True, None]:
         _refused(lambda c: positive(c, "x", inf_ok=True), value, "a positive number or inf")
 
 
@@ -119,6 +129,14 @@ def test_non_negative_refuses_everything_else(value):
 
 def test_non_negative_with_none_ok():
     non_negative(Cfg(None), "x", none_ok=True)
+
+    @dataclass(frozen=True)
+    class Two:
+        a: Any = None
+        b: Any = -1.0
+
+    with pytest.raises(ValueError, match=r"^Two\.b must be None or a number >= 0, got -1\.0$"):
+        non_negative(Two(), "a", "b", none_ok=True)  # a field after a None one is checked too
     non_negative(Cfg(0.0), "x", none_ok=True)
     for value in [-1.0, math.nan, "0", True]:
         _refused(lambda c: non_negative(c, "x", none_ok=True), value, "None or a number >= 0")
@@ -144,13 +162,16 @@ def test_in_range_closed_and_open_ends():
     for value in [0, 0.0, 1.0 + 1e-12, -0.5, *NOT_NUMBERS, *NON_FINITE]:
         _refused(check, value, "a number in (0, 1]")
     in_range(Cfg(0.0), "x", lo=0.0, hi=1.0, hi_open=True)
-    _refused(lambda c: in_range(c, "x", lo=0.0, hi=1.0, hi_open=True), 1.0, "a number in [0, 1)")
+    for value in [1.0, 2.0, -1e-12]:
+        _refused(lambda c: in_range(c, "x", lo=0.0, hi=1.0, hi_open=True), value, "a number in [0, 1)")
 
 
 def test_in_range_message_bounds_are_exact_and_the_unit_follows():
     _refused(lambda c: in_range(c, "x", lo=0.0, hi=math.pi, unit=" [rad]"), 4.0,
              "a number in [0, 3.141592653589793] [rad]")
     _refused(lambda c: in_range(c, "x", lo=0.01, hi=1e6), 0.0, "a number in [0.01, 1e+06]")
+    # a bound whose short form rounds up (0.123457 > 0.1234567) or down is written with every digit
+    _refused(lambda c: in_range(c, "x", lo=0.1234567, hi=0.7654321), 0.0, "a number in [0.1234567, 0.7654321]")
 
 
 # --------------------------------------------------------------------------- integer
