@@ -4,6 +4,7 @@ whose serpentine loops into the arm ending in ``collision`` instead of the succe
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -126,6 +127,9 @@ def test_a_tour_that_loops_into_the_arm_is_a_collision_not_a_success(tmp_path, c
     assert "self_contacts" not in result and "self_clearance" not in result  # result.json as the spec has it
     out = capsys.readouterr().out
     assert "FAILURE (collision)" in out and "the robot touched itself in" in out
+    # the pair named: the tip link (DH frame 20) in an arm link (frames 2-7), as session 37 found it
+    a, b = map(int, re.search(r"between the capsules of DH frames (\d+) and (\d+)", out).groups())
+    assert b == 20 and 2 <= a <= 7, out
     q = np.load(tmp_path / "run" / "trajectory.npz")["q"]
     deepest = min(_capsule_overlap(load_world(path), qk) for qk in q[::10])
     assert deepest < -0.04  # the sampled check agrees: a serpentine capsule deep in an arm capsule
