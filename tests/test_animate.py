@@ -15,7 +15,7 @@ from navstack.animate import AnimationConfig, Replay, animate_run, choose_view, 
 from navstack.cli import main
 from navstack.jpl import jpl_serpentine
 from navstack.render import CONTACT_RGBA
-from navstack.rundir import load_run, other_world, write_run_world
+from navstack.rundir import MAX_SENSED, RunData, load_run, other_world, write_run_world
 from navstack.trial import run_trial
 from navstack.truss import PAPER_BASE_RPY
 from navstack.world import Mesh, world_from_dict
@@ -269,6 +269,29 @@ def test_load_run_names_what_is_wrong(tmp_path):
         load_run(run_dir, tmp_path / "w.json")
 
 
+def test_load_run_checks_every_sample_count_and_time(tmp_path):
+    """No samples at all, a longer array than t, two samples out of order, only the last time too late."""
+    run_dir = synthetic_run(tmp_path / "run", n=5)
+    world = run_dir / "world.json"
+    good = dict(np.load(run_dir / "trajectory.npz"))
+    traj = run_dir / "trajectory.npz"
+    late = good["t"].copy()
+    late[-1] = 4000.0
+    for change, words in [({k: v[:0] for k, v in good.items()}, "holds no samples"),
+                          ({"q": np.vstack([good["q"], good["q"][-1:]])}, "q has 6 samples but t has 5"),
+                          ({k: v[:2] for k, v in {**good, "t": np.array([0.1, 0.0])}.items()}, "t must increase"),
+                          ({"t": late}, r"t runs from 0 to 4000 s, expected times within 0 \.\. 3600 s")]:
+        np.savez(traj, **{**good, **change})
+        with pytest.raises(ValueError, match=words):
+            load_run(run_dir, world)
+    edge = good["tip_des"].copy()
+    edge[0, 0] = 1.0e4  # the bound itself is taken (a world within 1 km)
+    np.savez(traj, **{**good, "tip_des": edge})
+    assert load_run(run_dir, world).tip_des[0, 0] == 1.0e4
+    assert RunData(path=run_dir, world=load_run(run_dir, world).world, t=np.empty(0), q=np.empty((0, 20)),
+                   q_des=np.empty((0, 20)), tip_des=np.empty((0, 3))).duration == 0.0
+
+
 def _npz_with_header(path, key: str, shape: tuple, arrays: dict) -> None:
     """An .npz whose member ``key`` has a header claiming ``shape`` (and a few bytes of data)."""
     import io
@@ -295,13 +318,24 @@ def test_a_hostile_or_damaged_run_folder_is_refused_naming_the_file(tmp_path):
     with pytest.raises(ValueError, match=r"'t' claims shape \(1099511627776,\)"):
         load_run(run_dir, world)
     _npz_with_header(traj, "sensed", (5, 10**7, 3), good)
-    with pytest.raises(ValueError, match="'sensed' claims shape"):
+    with pytest.raises(ValueError, match=r"'sensed' claims shape .* or 1,000 points per step$"):
         load_run(run_dir, world)
+    with pytest.raises(ValueError, match=r"control steps$"):  # no word of points for another array
+        _npz_with_header(traj, "t", (2**40,), rest)
+        load_run(run_dir, world)
+    assert MAX_SENSED == 1000
+    for k, ok in ((MAX_SENSED, True), (MAX_SENSED + 1, False)):  # the limit itself is taken
+        np.savez(traj, **good, sensed=np.zeros((5, k, 3)))
+        if ok:
+            assert load_run(run_dir, world).sensed.shape == (5, k, 3)
+        else:
+            with pytest.raises(ValueError, match="'sensed' claims shape"):
+                load_run(run_dir, world)
     np.save(tmp_path / "plain.npy", good["t"])  # a .npy saved under the .npz name
     traj.write_bytes((tmp_path / "plain.npy").read_bytes())
     with pytest.raises(ValueError, match="not a .npz archive"):
         load_run(run_dir, world)
-    for change, words in [({"t": good["t"] - 100.0}, "t runs from -100"),
+    for change, words in [({"t": good["t"] - 100.0}, r"t runs from -100 to -99\.7333 s"),
                           ({"t": good["t"] + 5000.0}, "expected times within 0 .. 3600 s"),
                           ({"t": good["t"] * 1e12}, "'t' holds values beyond"),
                           ({"q": good["q"] * 1e300}, "'q' holds values beyond"),

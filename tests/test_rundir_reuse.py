@@ -11,7 +11,7 @@ import trimesh
 from _worlds import TIP, world_data
 
 import navstack.trial
-from navstack.rundir import MAX_NAME_BYTES, RUN_FILES, load_run, mesh_copy_name
+from navstack.rundir import MAX_NAME_BYTES, RUN_FILES, check_run_folder, load_run, mesh_copy_name
 from navstack.trial import run_trial
 from navstack.world import load_world, world_from_dict
 
@@ -65,6 +65,18 @@ def test_a_mesh_with_a_255_byte_file_name_is_copied_into_the_run_folder(tmp_path
     assert mesh_copy_name(3, "node.stl") == "003-node.stl"  # short names as before
 
 
+def test_mesh_copy_names_at_the_file_name_limit_and_with_a_long_extension():
+    assert MAX_NAME_BYTES == 255
+    whole = "q" * 247 + ".stl"  # 251 bytes: with "003-", exactly 255
+    assert mesh_copy_name(3, whole) == "003-" + whole
+    longer = "q" + whole  # 256: hashed, the extension kept
+    name = mesh_copy_name(3, longer)
+    assert name.startswith("003-") and name.endswith(".stl") and len(name) == 4 + 16 + 4 and name != "003-" + longer
+    ext32, ext33 = "." + "e" * 31, "." + "e" * 32  # extensions of 32 and 33 bytes
+    assert mesh_copy_name(0, "m" * 260 + ext32).endswith(ext32)
+    assert len(mesh_copy_name(0, "m" * 260 + ext33)) == 4 + 16  # too long to be an extension: dropped
+
+
 def test_a_folder_that_never_held_a_run_keeps_its_files(tmp_path):
     out = tmp_path / "mine"
     out.mkdir()
@@ -89,3 +101,8 @@ def test_an_output_folder_the_run_would_damage_is_bad_input(tmp_path, capsys):
     assert main(["run", str(folder / "world.json"), "--out", str(folder), "--planner", "scripted"]) == 2
     assert "would overwrite the world file" in capsys.readouterr().err
     assert (folder / "world.json").read_bytes() == before and not (folder / "result.json").exists()
+    # a world.json elsewhere is no obstacle, whichever way the two paths sort
+    for other in (tmp_path / "a" / "world.json", tmp_path / "z" / "world.json"):
+        other.parent.mkdir()
+        other.write_text(json.dumps(_short("elsewhere")))
+        check_run_folder(load_world(other), tmp_path / "m")
