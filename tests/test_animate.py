@@ -320,8 +320,8 @@ def test_a_hostile_or_damaged_run_folder_is_refused_naming_the_file(tmp_path):
     _npz_with_header(traj, "sensed", (5, 10**7, 3), good)
     with pytest.raises(ValueError, match=r"'sensed' claims shape .* or 1,000 points per step$"):
         load_run(run_dir, world)
+    _npz_with_header(traj, "t", (2**40,), rest)
     with pytest.raises(ValueError, match=r"control steps$"):  # no word of points for another array
-        _npz_with_header(traj, "t", (2**40,), rest)
         load_run(run_dir, world)
     assert MAX_SENSED == 1000
     for k, ok in ((MAX_SENSED, True), (MAX_SENSED + 1, False)):  # the limit itself is taken

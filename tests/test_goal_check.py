@@ -176,7 +176,8 @@ def test_mesh_distances_of_a_mesh_off_its_own_origin(tmp_path):
                            "rpy": rpy.tolist()})
         found = blocked_goals(world_from_dict(data))
         assert [pytest.approx(b.distance, abs=1e-6) for b in found] == expected, gap
-    # only points within `within` of the mesh's box are measured; the rest are +inf, unmeasured
+    # only points within `within` of the mesh's box are measured; the rest are +inf, unmeasured (the last
+    # placement above: GOAL at the box's centre, 0.2 m inside)
     mesh = world_from_dict(data).obstacles[1]
     points = np.array([GOAL, GOAL + R @ [-0.7, 0.0, 0.0], GOAL + R @ [0.0, 0.0, 3.0]])  # 0.5 and 2.8 m off
     d = _mesh_signed_distance(mesh, points, np.array([0.01, 0.01, 1.0]))
