@@ -14,7 +14,7 @@ from pybullet_utils.bullet_client import BulletClient
 
 import navstack
 from navstack.generate.base import TIP, robot_dict
-from navstack.planner.own_arm import OwnArmConfig, turns_into_arm
+from navstack.planner.own_arm import OwnArmConfig, _resample, turns_into_arm
 from navstack.planner.search import ArmShape
 from navstack.sim.body import RobotBody
 from navstack.world import world_from_dict
@@ -161,3 +161,31 @@ def test_agrees_with_the_rule_written_plainly():
         assert turns_into_arm(HISTORY, plan, arm, LINK, RADIUS) is expected
         hits += expected
     assert 8 <= hits <= 52  # both answers occur (14 of 60 with this seed)
+
+
+def test_the_path_is_resampled_to_its_very_end():
+    pts, s = _resample(np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 0.5, 0.0]]), 0.2)
+    assert s[-1] == pytest.approx(1.5) and pts[-1] == pytest.approx([1.0, 0.5, 0.0])
+    assert np.allclose(np.diff(s[:-1]), 0.2) and pts[5] == pytest.approx([1.0, 0.0, 0.0])
+
+
+def test_agrees_with_the_rule_written_plainly_after_a_curved_way_in():
+    """The way in curved (an arc ending at the origin heading +x, the flange 1.2 m of it back): only the flange's
+    places from the body's length before the plan's start on count, not the older ones along the curve."""
+    rng = np.random.default_rng(44)
+    hits = 0
+    for _ in range(60):
+        kh = rng.uniform(1.0, 4.0)
+        th = np.linspace(-1.8, 0.0, 181)
+        history = np.column_stack([np.sin(kh * th) / kh, (1 - np.cos(kh * th)) / kh, np.zeros_like(th)])
+        flange = history[np.argmin(np.abs(th + BODY))]
+        length, k = rng.uniform(0.3, 1.5), rng.uniform(0.5, 6.0) * rng.choice([-1.0, 1.0])
+        t = np.linspace(0.0, length, int(length / 0.01) + 2)
+        plan = np.column_stack([np.sin(k * t) / k, (1 - np.cos(k * t)) / k, rng.uniform(-0.2, 0.2) * t])
+        n = 16
+        arm = ArmShape(flange + np.column_stack([np.linspace(-0.8, -0.05, n), np.full(n, rng.uniform(-0.3, 0.3)),
+                                                 np.linspace(-0.5, 0.0, n) * rng.uniform(0.0, 1.0)]), flange, 0.06)
+        expected = _brute_force(history, plan, arm)
+        assert turns_into_arm(history, plan, arm, LINK, RADIUS) is expected
+        hits += expected
+    assert 8 <= hits <= 52, hits  # both answers occur
