@@ -145,18 +145,25 @@ def _brute_force(history, plan, arm, cfg=CFG) -> bool:
     return False
 
 
+def _arc_plan_and_arm(rng, length: float, k: float, flange) -> tuple[np.ndarray, ArmShape]:
+    """A plan along an arc of ``length`` [m] and curvature ``k`` [1/m] from the origin heading +x, climbing at a
+    random slope, and an arm of 16 points from 0.8 to 0.05 m behind ``flange``, at a random side offset and
+    depth."""
+    t = np.linspace(0.0, length, int(length / 0.01) + 2)
+    plan = np.column_stack([np.sin(k * t) / k, (1 - np.cos(k * t)) / k, rng.uniform(-0.2, 0.2) * t])
+    n = 16
+    arm = ArmShape(flange + np.column_stack([np.linspace(-0.8, -0.05, n), np.full(n, rng.uniform(-0.3, 0.3)),
+                                             np.linspace(-0.5, 0.0, n) * rng.uniform(0.0, 1.0)]), flange, 0.06)
+    return plan, arm
+
+
 def test_agrees_with_the_rule_written_plainly():
     """Random arcs (curvature 0.5-8 /m, 0.3-2 m, climbing) against random arms beside and below the way in."""
     rng = np.random.default_rng(34)
     hits = 0
     for _ in range(60):
         length, k = rng.uniform(0.3, 2.0), rng.uniform(0.5, 8.0)
-        t = np.linspace(0.0, length, int(length / 0.01) + 2)
-        plan = np.column_stack([np.sin(k * t) / k, (1 - np.cos(k * t)) / k, rng.uniform(-0.2, 0.2) * t])
-        n = 16
-        arm = ArmShape(np.column_stack([np.linspace(-2.0, -1.25, n), np.full(n, rng.uniform(-0.3, 0.3)),
-                                        np.linspace(-0.5, 0.0, n) * rng.uniform(0.0, 1.0)]),
-                       np.array([-1.2, 0.0, 0.0]), 0.06)
+        plan, arm = _arc_plan_and_arm(rng, length, k, np.array([-1.2, 0.0, 0.0]))
         expected = _brute_force(HISTORY, plan, arm)
         assert turns_into_arm(HISTORY, plan, arm, LINK, RADIUS) is expected
         hits += expected
@@ -180,11 +187,7 @@ def test_agrees_with_the_rule_written_plainly_after_a_curved_way_in():
         history = np.column_stack([np.sin(kh * th) / kh, (1 - np.cos(kh * th)) / kh, np.zeros_like(th)])
         flange = history[np.argmin(np.abs(th + BODY))]
         length, k = rng.uniform(0.3, 1.5), rng.uniform(0.5, 6.0) * rng.choice([-1.0, 1.0])
-        t = np.linspace(0.0, length, int(length / 0.01) + 2)
-        plan = np.column_stack([np.sin(k * t) / k, (1 - np.cos(k * t)) / k, rng.uniform(-0.2, 0.2) * t])
-        n = 16
-        arm = ArmShape(flange + np.column_stack([np.linspace(-0.8, -0.05, n), np.full(n, rng.uniform(-0.3, 0.3)),
-                                                 np.linspace(-0.5, 0.0, n) * rng.uniform(0.0, 1.0)]), flange, 0.06)
+        plan, arm = _arc_plan_and_arm(rng, length, k, flange)
         expected = _brute_force(history, plan, arm)
         assert turns_into_arm(history, plan, arm, LINK, RADIUS) is expected
         hits += expected
