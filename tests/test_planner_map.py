@@ -646,6 +646,58 @@ def test_clearing_in_a_cloud_removes_only_what_the_rule_names_and_all_of_it_wher
     assert checked >= 20  # the complete case was exercised
 
 
+def test_the_buckets_near_a_point_are_the_27_round_every_bucket_that_ever_held_one():
+    """``_near``, which lets a clean pass skip a step of its walk, is the 3x3x3 dilation of the buckets that hold
+    (or held) a point: checked against scipy's dilation after clouds inside and beyond the grid (clamped into
+    its edge buckets), and after the points are cleared away (a bucket once near stays near)."""
+    from scipy.ndimage import binary_dilation
+
+    rng = np.random.default_rng(12)
+    smap = _map(CLEARING)
+    span = smap.origin + smap.bucket_dims * CFG.bucket
+    for lo, hi in [((0.1, 0.1, 0.1), (0.2, 0.3, 0.2)), (smap.origin - 0.2, span + 0.2), (smap.origin, span)]:
+        smap.add_points(_voxel_cloud(rng, 300, lo=lo, hi=hi))
+        expected = binary_dilation(smap.head >= 0, structure=np.ones((3, 3, 3), dtype=bool))
+        np.testing.assert_array_equal(smap._near.astype(bool), expected)
+    before = smap._near.copy()
+    smap.update(smap.points[:50] - 0.2 * X, np.tile(X, (50, 1)), np.full(50, 0.03), np.full(50, 0.4),
+                np.zeros(50, dtype=bool), np.ones(50, dtype=bool))
+    np.testing.assert_array_equal(smap._near, before)
+
+
+@pytest.mark.parametrize("inward", [True, False])
+def test_clearing_matches_the_rule_for_rays_crossing_the_grids_edge(inward):
+    """A ray from outside the map's grid into it (its walk starts clamped to the edge buckets, where no step may
+    be skipped), or from inside out of it, through a point inside near that edge: removed or kept as the rule
+    says, a clear radius either side (as in the random-ray test above)."""
+    rng = np.random.default_rng(13 if inward else 14)
+    wrong = []
+    outside = 0
+    for trial in range(200):
+        smap = _map(CLEARING)
+        axis, high = int(rng.integers(3)), bool(rng.integers(2))
+        edge = (smap.origin + smap.bucket_dims * CFG.bucket)[axis] if high else smap.origin[axis]
+        p = rng.uniform(0.1, 0.3, 3)
+        p[axis] = edge + (-1 if high else 1) * rng.uniform(0.005, 0.06)  # inside, near the edge
+        smap.add_points([p])
+        p = smap.points[0]  # as stored (the voxel's point)
+        d = rng.normal(size=3)
+        d[axis] = (-1 if high == inward else 1) * rng.uniform(0.5, 1.0) * np.linalg.norm(d)  # across the edge
+        d /= np.linalg.norm(d)
+        lateral = rng.normal(size=3)
+        lateral -= (lateral @ d) * d
+        lateral *= (0.9 if trial % 2 == 0 else 1.1) * CLEARING.clear_radius / np.linalg.norm(lateral)
+        origin = p + lateral - rng.uniform(0.1, 0.25) * d
+        start = (origin + 0.03 * d)[axis]
+        outside += bool(start > edge if high else start < edge)
+        smap.update([origin], [d], [0.03], [0.4], [False], [True])
+        removed = _clearing_reference(np.array([p]), origin, d, 0.03, 0.4)[0]
+        if smap.n_points != (0 if removed else 1):
+            wrong.append((trial, p, origin, d))
+    assert not wrong, f"{len(wrong)} of 200 wrong, e.g. {wrong[0]}"
+    assert (outside >= 100) if inward else (outside == 0)  # the clamped start exercised (or not at all)
+
+
 # ---------------------------------------------------------------------------- mark_free
 @pytest.mark.parametrize(("centre", "radius"), [((0.303, 0.207, 0.191), 0.025), ((0.0, 0.0, 0.0), 0.061),
                                                ((-0.69, 0.1, 0.1), 0.05)])

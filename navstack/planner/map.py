@@ -330,13 +330,15 @@ def _dda_start(p, d, idx, origin, bucket, step, tmax, tdelta):  # pragma: no cov
 @numba.njit(cache=True)
 def _pass_along(ray, s0, s1, clear_r, slope, P, alive, evidence, latent, mark, tag, head, visit, nxt, origin, bucket,
                 dims, forget, established, seen, reading, shadow, sheet, cand, n_cand, work,
-                dwork):  # pragma: no cover - jitted
+                dwork, near):  # pragma: no cover - jitted
     """The clean pass of ``ray = (ox, oy, oz, dx, dy, dz)`` over [s0, s1] through the points within
     ``clear_r + slope a`` of it, ``a`` along the ray (:func:`_pass_bucket`).  A 3D DDA (Amanatides and Woo
     1987) walks the buckets the segment crosses; in each, the buckets that the box around the segment's part
     there, grown by the radius at its far end, touches are scanned, each once per ray (``visit[bucket] == tag``
     once scanned; an empty bucket is skipped, unmarked).  Every point within that radius of the segment lies in
-    one of them (a point stays in the voxel, so the bucket, it was first put in).  ``work`` (3, 3) int and
+    one of them (a point stays in the voxel, so the bucket, it was first put in).  ``near`` (the bucket grid)
+    is 1 where one of the 27 buckets round a bucket ever held a point (:func:`_merge_points` keeps it): where it
+    is 0 the walk steps on without working out the box.  ``work`` (3, 3) int and
     ``dwork`` (2, 3) float are the DDA's scratch space, passed in so that a reading's rays share one allocation
     (each ray allocating its five 3-vectors cost a tenth of :func:`_carve` on the paper demo's readings).
     Returns ``(removed, contradicted)``."""
@@ -352,6 +354,12 @@ def _pass_along(ray, s0, s1, clear_r, slope, P, alive, evidence, latent, mark, t
     tmax, tdelta = dwork[0], dwork[1]
     _dda_start(p, d, (i, j, k), origin, bucket, step, tmax, tdelta)
     length = s1 - s0
+    # Each step's box lies within the 27 buckets round the DDA's own when the walk starts inside the grid (its
+    # bucket then is the segment's) and the radius stays below half a bucket: a step whose 27 buckets never held a
+    # point (``near == 0``) has nothing to scan.
+    fast = max(clear_r + slope * s0, clear_r + slope * s1) + 1e-9 <= 0.5 * bucket
+    for a in range(3):
+        fast = fast and 0 <= math.floor((p[a] - origin[a]) / bucket) < dims[a]
     t_in = 0.0
     while True:
         c = 0
@@ -359,26 +367,28 @@ def _pass_along(ray, s0, s1, clear_r, slope, P, alive, evidence, latent, mark, t
             c = 1
         if tmax[2] < tmax[c]:
             c = 2
-        t_out = min(tmax[c], length)
-        grow = clear_r + slope * (s0 + t_out) + 1e-9  # and a nanometre for a point a running mean rounded onto
-        # its voxel's face
-        for a in range(3):
-            x0, x1 = p[a] + t_in * d[a], p[a] + t_out * d[a]
-            lo[a] = _cell(min(x0, x1) - grow, origin, bucket, dims, a)
-            hi[a] = _cell(max(x0, x1) + grow, origin, bucket, dims, a)
-        for a in range(lo[0], hi[0] + 1):
-            for b in range(lo[1], hi[1] + 1):
-                for cc in range(lo[2], hi[2] + 1):
-                    if head[a, b, cc] >= 0 and visit[a, b, cc] != tag:  # an empty bucket has nothing to pass
+        if not fast or near[i, j, k]:
+            t_out = min(tmax[c], length)
+            grow = clear_r + slope * (s0 + t_out) + 1e-9  # and a nanometre for a point a running mean rounded
+            # onto its voxel's face
+            for a in range(3):
+                x0, x1 = p[a] + t_in * d[a], p[a] + t_out * d[a]
+                lo[a] = _cell(min(x0, x1) - grow, origin, bucket, dims, a)
+                hi[a] = _cell(max(x0, x1) + grow, origin, bucket, dims, a)
+            for a in range(lo[0], hi[0] + 1):
+                for b in range(lo[1], hi[1] + 1):
+                    for cc in range(lo[2], hi[2] + 1):
+                        if head[a, b, cc] < 0 or visit[a, b, cc] == tag:
+                            continue  # an empty bucket has nothing to pass; a scanned one is done
                         visit[a, b, cc] = tag
                         if grazing:
                             r, n = _pass_bucket(a, b, cc, ray, s0, s1, clear_r, slope, P, alive, evidence, latent,
-                                                mark, tag, head, nxt, forget, established, seen, reading, shadow, dims,
-                                                sheet, cand, n_cand)
+                                                mark, tag, head, nxt, forget, established, seen, reading, shadow,
+                                                dims, sheet, cand, n_cand)
                         else:
                             r, n = _pass_bucket(a, b, cc, ray, s0, s1, clear_r, slope, P, alive, evidence, latent,
-                                                mark, tag, head, nxt, forget, established, seen, reading, shadow, dims,
-                                                None, cand, n_cand)
+                                                mark, tag, head, nxt, forget, established, seen, reading, shadow,
+                                                dims, None, cand, n_cand)
                         removed += r
                         contradicted += n
         if tmax[c] > length:
@@ -416,7 +426,7 @@ def _free_along(ox, oy, oz, dx, dy, dz, s, e, free, forigin, fcell, fdims):  # p
 @numba.njit(cache=True)
 def _carve(origins, dirs, starts, ends, free, forigin, fcell, fdims, P, alive, evidence, latent, mark, tag0, head,
            visit, nxt, borigin, bucket, bdims, clear_r, slope, clear_back, forget, established,
-           seen, reading, shadow, sheet, cand, n_cand):  # pragma: no cover - jitted
+           seen, reading, shadow, sheet, cand, n_cand, near):  # pragma: no cover - jitted
     """Mark the cells along each ray [start, end) seen free, and pass each ray's clear part (up to ``end -
     clear_back``) through the points it meets (:func:`_pass_along`: ``forget`` them, or count the
     contradicted ones; none with ``clear_r <= 0``).  Returns ``(removed, contradicted)``."""
@@ -433,7 +443,8 @@ def _carve(origins, dirs, starts, ends, free, forigin, fcell, fdims, P, alive, e
             continue
         n_removed, n_contradicted = _pass_along(ray, starts[r], e_clear, clear_r, slope, P, alive, evidence, latent,
                                                 mark, tag0 + r, head, visit, nxt, borigin, bucket, bdims, forget,
-                                                established, seen, reading, shadow, sheet, cand, n_cand, work, dwork)
+                                                established, seen, reading, shadow, sheet, cand, n_cand, work, dwork,
+                                                near)
         removed += n_removed
         contradicted += n_contradicted
     return removed, contradicted
@@ -579,10 +590,11 @@ def _voxel_keys(pts, origin, voxel):  # pragma: no cover - jitted
 @numba.njit(cache=True)
 def _merge_points(first, pts, keys, n_plain, plain_voxels, shadow_voxels, P, count, evidence, latent, alive, nxt,
                   is_shadow, head, n, origin, bucket, bdims, free, free_cell, fdims, average, initial_evidence,
-                  max_evidence, changed, n_changed, dirs, view):  # pragma: no cover - jitted
+                  max_evidence, changed, n_changed, dirs, view, near):  # pragma: no cover - jitted
     """Merge ``pts[first:]`` (packed voxel ``keys``) into their voxels (:meth:`SensedMap.add_points`), in order,
     writing the points added or moved to ``changed[n_changed:]``: ``pts[:n_plain]`` are surface points (voxels
-    ``plain_voxels``), the rest shadow points (``shadow_voxels``).
+    ``plain_voxels``), the rest shadow points (``shadow_voxels``); a bucket's first point sets ``near`` on the
+    27 buckets round it.
 
     Stops before the first point that needs a new slot when all ``P.shape[0]`` are in use.  Returns
     ``(points done, slots in use, n_changed)``."""
@@ -630,6 +642,11 @@ def _merge_points(first, pts, keys, n_plain, plain_voxels, shadow_voxels, P, cou
             bi = _cell(px, origin, bucket, bdims, 0)
             bj = _cell(py, origin, bucket, bdims, 1)
             bk = _cell(pz, origin, bucket, bdims, 2)
+            if head[bi, bj, bk] < 0:  # the bucket's first point: the 27 round it have one near (``near``)
+                for a in range(max(bi - 1, 0), min(bi + 2, bdims[0])):
+                    for b in range(max(bj - 1, 0), min(bj + 2, bdims[1])):
+                        for cc in range(max(bk - 1, 0), min(bk + 2, bdims[2])):
+                            near[a, b, cc] = 1
             nxt[idx] = head[bi, bj, bk]
             head[bi, bj, bk] = idx
             is_shadow[idx] = shadow
@@ -682,6 +699,7 @@ class SensedMap:
             raise ValueError(f"SensedMap: the box {lo} .. {hi} is too large for a local map")
         self.head = np.full(tuple(self.bucket_dims), -1, dtype=np.int64)
         self._visit = np.full(tuple(self.bucket_dims), -1, dtype=np.int64)  # the last ray that scanned a bucket
+        self._near = np.zeros(tuple(self.bucket_dims), dtype=np.uint8)  # 1: one of the 27 buckets round it held a point
         self.free = np.zeros(tuple(self.free_dims), dtype=np.uint8)
         self._P = np.zeros((1024, 3))
         self._count = np.zeros(1024, dtype=np.int64)
@@ -795,7 +813,7 @@ class SensedMap:
                 done, pts, keys, n_plain, self._voxels, self._shadow_voxels, self._P, self._count, self._evidence,
                 self._latent, self._alive, self._next, self._shadow, self.head, self._n, self.origin, cfg.bucket,
                 self.bucket_dims, self.free, cfg.free_cell, self.free_dims, cfg.average, cfg.initial_evidence,
-                cfg.max_evidence, changed, n_changed, dirs, self._view)
+                cfg.max_evidence, changed, n_changed, dirs, self._view, self._near)
             if done == pts.shape[0]:
                 break
             self._grow()  # out of slots: double them, and go on from the point that needed one
@@ -828,7 +846,7 @@ class SensedMap:
             o, d, st, ends, self.free, self.origin, cfg.free_cell, self.free_dims, self._P, self._alive, self._evidence,
             self._latent, self._mark, self._rays, self.head, self._visit, self._next, self.origin, cfg.bucket,
             self.bucket_dims, radius if passing else 0.0, slope, cfg.clear_backoff, self.forgetting, cfg.max_evidence,
-            self._seen, self.readings, self._shadow, self._sheet, self._cand, self._n_cand)
+            self._seen, self.readings, self._shadow, self._sheet, self._cand, self._n_cand, self._near)
         if self._n_cand[0]:
             self.contradicted += _judge(self._cand, self._n_cand, self._rays, d, self._seen, self.readings, self._view,
                                         self._view_cos, self._graze_sin, self._sheet, self._P, self._alive,
