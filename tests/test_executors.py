@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import json
+import os
 import subprocess
 import time
 from concurrent.futures.process import BrokenProcessPool
@@ -223,6 +224,96 @@ def test_provenance_keys_and_version_key():
     assert tuple(p) == provenance.PROVENANCE_KEYS and p["backend"] == "ray"
     assert provenance.version_key(p) == tuple(p[k] for k in provenance.VERSION_KEYS)
     assert provenance.version_key(None) is None
+
+
+HEX40 = "0123456789abcdef" * 2 + "01234567"
+
+
+def _fake_git(tmp_path: Path, monkeypatch, **answers: tuple[str, int | str]) -> Path:
+    """Put first on PATH a ``git`` that answers ``git -C DIR SUBCOMMAND ...`` with ``answers[SUBCOMMAND]``
+    (``rev_parse`` for ``rev-parse``): ``(stdout, exit code)``, or ``(stdout, "kill")`` to die by SIGKILL after
+    writing it, or ``(seconds, "sleep")`` to hang; any other subcommand fails. Returns a folder to ask about."""
+    lines = ["#!/bin/sh", 'case "$3" in']
+    for sub, (out, end) in answers.items():
+        if end == "sleep":
+            act = f"exec sleep {out}"
+        else:
+            act = f"printf '%s\\n' '{out}'; " + ("kill -9 $$" if end == "kill" else f"exit {end}")
+        lines.append(f"  {sub.replace('_', '-')}) {act};;")
+    lines += ["esac", "exit 1", ""]
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    (bin_dir / "git").write_text("\n".join(lines))
+    (bin_dir / "git").chmod(0o755)
+    monkeypatch.setenv("PATH", str(bin_dir), prepend=os.pathsep)
+    return tmp_path
+
+
+CLEAN = {"ls_files": ("__init__.py", 0), "status": ("", 0)}
+
+
+def test_source_commit_from_a_fake_git_that_answers(tmp_path, monkeypatch):
+    """The fake ``git`` itself: tracked, clean, HEAD 40 lower-case hex digits - that commit."""
+    assert provenance.source_commit(_fake_git(tmp_path, monkeypatch, **CLEAN, rev_parse=(HEX40, 0))) == HEX40
+
+
+@pytest.mark.parametrize("head", [HEX40[:-1], HEX40 + "0", HEX40 + HEX40[:24], HEX40.upper(), HEX40[:-1] + "g"],
+                         ids=["39", "41", "64-sha256", "upper", "not-hex"])
+def test_source_commit_none_unless_head_is_40_hex_digits(tmp_path, monkeypatch, head):
+    """A HEAD that is not 40 lower-case hex digits (too short, too long, a SHA-256 repository's 64, upper
+    case, a non-hex digit) names no commit."""
+    assert provenance.source_commit(_fake_git(tmp_path, monkeypatch, **CLEAN, rev_parse=(head, 0))) is None
+
+
+@pytest.mark.parametrize("end", [1, 128, "kill"])
+def test_source_commit_none_when_git_fails_or_dies_despite_its_output(tmp_path, monkeypatch, end):
+    """``git rev-parse`` writing a well-formed commit but exiting non-zero, or killed by a signal (a negative
+    return code): its output is no answer."""
+    assert provenance.source_commit(_fake_git(tmp_path, monkeypatch, **CLEAN, rev_parse=(HEX40, end))) is None
+
+
+@pytest.mark.parametrize("failing", ["status", "rev_parse"])
+def test_source_commit_none_when_a_later_git_call_fails(tmp_path, monkeypatch, failing):
+    """``ls-files`` succeeds but ``status`` or ``rev-parse`` then fails (no output, exit 128): None, no error."""
+    answers = {**CLEAN, "rev_parse": (HEX40, 0), failing: ("", 128)}
+    assert provenance.source_commit(_fake_git(tmp_path, monkeypatch, **answers)) is None
+
+
+def test_source_commit_none_when_git_hangs_or_is_missing(tmp_path, monkeypatch):
+    """A ``git`` that outlasts ``GIT_TIMEOUT``, or no ``git`` on PATH (an OSError): None, no error."""
+    monkeypatch.setattr(provenance, "GIT_TIMEOUT", 0.3)
+    hung = _fake_git(tmp_path, monkeypatch, ls_files=(60, "sleep"), status=("", 0), rev_parse=(HEX40, 0))
+    t0 = time.monotonic()
+    assert provenance.source_commit(hung) is None
+    assert 0.3 <= time.monotonic() - t0 < 30.0  # it did hang, and was cut off (long before its 60 s sleep)
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    monkeypatch.setenv("PATH", str(empty))
+    assert provenance.source_commit(tmp_path) is None
+
+
+def test_provenance_versions_of_distributions():
+    """An installed distribution's version from its metadata; a distribution not installed: None."""
+    import numpy
+
+    assert provenance._dist_version("numpy") == numpy.__version__
+    assert provenance._dist_version("navstack-no-such-distribution-xyz") is None
+
+
+def test_provenance_computed_once_per_process(monkeypatch):
+    """The commit (a git call) is looked up once per process, however many lines ask; each call still gives
+    a new dict."""
+    calls = []
+    monkeypatch.setattr(provenance, "source_commit", lambda: calls.append(1) or HEX40)
+    provenance._this_process.cache_clear()
+    try:
+        a, b = provenance.provenance("local"), provenance.provenance("ray")
+        assert len(calls) == 1
+        assert a["commit"] == b["commit"] == HEX40 and (a["backend"], b["backend"]) == ("local", "ray")
+        a["host"] = "changed"
+        assert provenance.provenance("ray") == b
+    finally:
+        provenance._this_process.cache_clear()
 
 
 # ---------------------------------------------------------------------------- generated worlds kept by a worker

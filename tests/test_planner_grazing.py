@@ -329,3 +329,160 @@ def test_fins_met_edge_on_sense_no_motion(seed, difficulty, motion_sensed):
     print(f"\nfin-bank seed {seed} d {difficulty}: {r.reason}, min clearance {r.metrics['min_clearance'] * 1e3:.1f} mm")
     assert r.success and r.metrics["contacts"] == 0
     assert motion_sensed == []
+
+
+def _along_reference(P: np.ndarray, q: int, d: np.ndarray, cfg: MapConfig, sin_min: float) -> bool | None:
+    """:func:`along_a_plane` by numpy's eigensolver over every point (no buckets); None within 1e-9 of a
+    threshold."""
+    near = P[np.linalg.norm(P - P[q], axis=1) < cfg.sheet_radius]
+    if len(near) < cfg.sheet_min_points:
+        return False
+    w, v = np.linalg.eigh(np.cov(near.T, bias=True))
+    if min(abs(w[1] - 0.005**2), abs(w[0] - cfg.sheet_line_ratio**2 * w[1])) < 1e-12:
+        return None
+    if abs(abs(d @ v[:, 0]) - sin_min) < 1e-9:
+        return None
+    return bool(w[1] >= 0.005**2 and w[0] < cfg.sheet_line_ratio**2 * w[1] and abs(d @ v[:, 0]) < sin_min)
+
+
+# map extents [m] (buckets 4 cm, a 5 mm margin): each axis in turn the longest (bucket dims all different), and
+# each axis in turn two buckets and three buckets thick
+GRIDS = [np.roll([0.4, 0.2, 0.1], s) for s in range(3)] + [np.where(np.arange(3) == e, t, 0.3)
+                                                           for e in range(3) for t in (0.01, 0.05)]
+
+
+@pytest.mark.parametrize("hi", GRIDS, ids=lambda hi: "x".join(f"{h:g}" for h in hi))
+def test_kernels_match_the_references_anywhere_in_any_grid(hi):
+    """The bucket scan finds every neighbour within ``sheet_radius`` and none twice, wherever the point lies
+    in the grid (against its low and high faces, in a grid two or three buckets thick, its dims all different)
+    and along whichever axis the ray runs (rays along the axes included): both kernels agree with numpy
+    references that look at every point."""
+    rng = np.random.default_rng(int(1000 * hi.sum() + 10 * np.argmax(hi)))
+    cfg, sin_min = dataclasses.replace(CFG, margin=0.005), np.sin(np.radians(10.0))
+    dims = SensedMap(np.full(3, cfg.margin), hi - cfg.margin, cfg).bucket_dims
+    assert len(set(dims)) == 3 if hi.min() > 0.05 else dims.min() == (2 if hi.min() < 0.04 else 3)
+    answers: list[tuple[bool, bool]] = []
+    for _ in range(100):
+        if rng.random() < 0.3:
+            d = np.eye(3)[rng.integers(3)] * rng.choice([-1.0, 1.0])
+        else:
+            d = rng.normal(size=3)
+            d /= np.linalg.norm(d)
+        axes = np.diag([rng.uniform(0.0, 0.02), rng.uniform(0.0, 0.02), rng.uniform(0.0, 0.004)])
+        axes = axes @ np.linalg.qr(rng.normal(size=(3, 3)))[0]  # rows: the patch's axes, turned at random
+        pts = rng.normal(size=(int(rng.integers(2, 24)), 3)) @ axes
+        # per axis: against the grid's low face, its high face, or anywhere; within its buckets (none clamped)
+        where, box = rng.integers(3, size=3), dims * cfg.bucket - 1e-6
+        shift = np.where(where == 0, -pts.min(axis=0), np.where(where == 1, box - pts.max(axis=0),
+                                                                 rng.uniform(0.0, box) - pts.mean(axis=0)))
+        pts = np.clip(pts + shift, 0.0, box)
+        if rng.random() < 0.5 and abs(d).max() < 1.0:  # a ray nearly in the patch's plane: both answers come up
+            n = np.linalg.svd(axes)[2][-1]
+            d -= (d @ n) * n * rng.uniform(0.8, 1.0)
+            d /= np.linalg.norm(d)
+        smap = SensedMap(np.full(3, cfg.margin), hi - cfg.margin, cfg)
+        assert (smap.origin == 0.0).all() and (smap.bucket_dims == dims).all()
+        smap.add_points(pts)
+        P = smap.points
+        q = int(rng.integers(len(P)))
+        idx = np.floor((P[q] - smap.origin) / cfg.bucket).astype(int)
+        assert (idx < smap.bucket_dims).all()  # no point clamped into a bucket it does not lie in
+        l_vec = rng.normal(size=3) * 0.015
+        l_vec -= (l_vec @ d) * d
+        across = float(rng.choice([0.004, 0.01]))
+        beside = beside_a_line(q, *idx, *l_vec, *d, across, cfg.sheet_radius, cfg.sheet_min_points,
+                               cfg.sheet_line_ratio, smap._P, smap._alive, smap._shadow, smap.head, smap._next,
+                               smap.bucket_dims, smap._mark, -2)
+        want = _reference(P, q, l_vec, d, across, cfg)
+        if want is not None:
+            assert beside == want, (pts, q, l_vec, d, across)
+        along = _along(smap, q, d, cfg, sin_min)
+        want_along = _along_reference(P, q, d, cfg, sin_min)
+        if want_along is not None:
+            assert along is want_along, (pts, q, d)
+        answers.append((beside, along))
+    assert 4 <= np.sum(answers, axis=0).min() and np.sum(answers, axis=0).max() <= len(answers) - 4
+
+
+@pytest.mark.parametrize("shape", ["line", "spot"])
+def test_beside_a_line_needs_more_than_across(shape):
+    """``beside_a_line`` holds when the ray passes *more* than ``across`` from the neighbours' line (a rod
+    across the ray) or spot (a rod along it). A rod of points 1 cm apart in the plane y = Y0, along z (a line
+    across a ray along x) or along x (a spot), the ray along x: passing exactly ``across`` off in y (every
+    quantity exact: the neighbours lie on the axes the kernel projects onto), the pass counts (False); a
+    hair further, it does not (True); a hair closer, it counts."""
+    cfg, across = CFG, 0.01
+    smap = SensedMap(LO, HI, cfg)
+    smap.add_points(ROD if shape == "line" else np.outer(0.255 + STEPS, X) + [0.0, Y0, 0.155])
+    P = smap.points
+    q = int(np.argmin(np.linalg.norm(P - P.mean(axis=0), axis=1)))
+    idx = np.floor((P[q] - smap.origin) / cfg.bucket).astype(int)
+    assert (np.linalg.norm(P - P[q], axis=1) < cfg.sheet_radius).sum() >= cfg.sheet_min_points
+
+    def beside(off: float) -> bool:
+        return bool(beside_a_line(q, *idx, 0.0, off, 0.0, *X, across, cfg.sheet_radius, cfg.sheet_min_points,
+                                  cfg.sheet_line_ratio, smap._P, smap._alive, smap._shadow, smap.head,
+                                  smap._next, smap.bucket_dims, smap._mark, -2))
+
+    for sign in (1.0, -1.0):
+        assert not beside(sign * across)
+        assert beside(sign * across * (1 + 1e-9))
+        assert not beside(sign * across * (1 - 1e-9))
+
+
+def test_a_spread_of_exactly_5_mm_across_the_ray_is_a_line_not_a_spot():
+    """Neighbours seen along the ray are one spot when their spread is *under* 5 mm (standard deviation). Two
+    points 1 cm apart along z (z = 0.01 and 0.02: the difference is exactly the double 0.01, so the spread is
+    exactly 5 mm), ``min_points`` 2, a ray along x through their line 2 cm beyond their centroid: a line, the
+    ray on it, so the pass counts (False). 0.1 mm closer together they are a spot the ray passes 2 cm from
+    (True)."""
+    cfg, across = CFG, 0.01
+
+    def beside(z0: float, z1: float) -> bool:
+        smap = SensedMap(LO, HI, cfg)
+        smap.add_points(np.array([[0.3, 0.2, z0], [0.3, 0.2, z1]]))
+        P = smap.points
+        q = int(np.argmin(P[:, 2]))
+        assert len(P) == 2 and P[q, 2] == z0 and P[1 - q, 2] == z1
+        idx = np.floor((P[q] - smap.origin) / cfg.bucket).astype(int)
+        lz = -((z1 - z0) / 2 + 0.02)  # the point minus the ray's closest point: the ray 2 cm past the centroid
+        return bool(beside_a_line(q, *idx, 0.0, 0.0, lz, *X, across, cfg.sheet_radius, 2, cfg.sheet_line_ratio,
+                                  smap._P, smap._alive, smap._shadow, smap.head, smap._next, smap.bucket_dims,
+                                  smap._mark, -2))
+
+    assert 0.02 - 0.01 == 0.01
+    assert not beside(0.01, 0.02)
+    assert beside(0.0101, 0.02)
+
+
+@pytest.mark.parametrize("e", [0, 1, 2])
+def test_a_grid_two_buckets_thick_counts_each_neighbour_once(e):
+    """A grid two buckets thick along axis ``e``; the point in the lower bucket, its neighbours in the upper
+    one. A rod along ``e`` (a ray along the next axis 2 cm off it would run beside it) and a triangle in a plane
+    (a ray in that plane would run along it): with three points, fewer than ``sheet_min_points`` (4), both
+    kernels say no whatever the ray; with a fourth neighbour, yes (as the numpy references say)."""
+    cfg, sin_min = dataclasses.replace(CFG, margin=0.005), np.sin(np.radians(10.0))
+    f, g = (e + 1) % 3, (e + 2) % 3
+    E = np.eye(3)
+    hi = np.where(np.arange(3) == e, 0.01, 0.3)
+    rod = [0.035 * E[e] + 0.15 * (E[f] + E[g]) + t * E[e] for t in (0.0, 0.01, 0.02, 0.025)]
+    tri = [0.035 * E[e] + 0.15 * (E[f] + E[g]) + a * E[e] + b * E[f]
+           for a, b in ((0.0, 0.0), (0.01, 0.015), (0.02, -0.015), (0.015, 0.0))]
+    for n in (3, 4):
+        for pts in (rod, tri):
+            smap = SensedMap(np.full(3, cfg.margin), hi - cfg.margin, cfg)
+            assert smap.bucket_dims[e] == 2 and (smap.origin == 0.0).all()
+            smap.add_points(np.array(pts[:n]))
+            P = smap.points
+            q = int(np.argmin(P[:, e]))
+            idx = np.floor((P[q] - smap.origin) / cfg.bucket).astype(int)
+            assert idx[e] == 0 and (np.floor(np.delete(P, q, axis=0)[:, e] / cfg.bucket) == 1).all()
+            assert (np.linalg.norm(P - P[q], axis=1) < cfg.sheet_radius).sum() == n
+            if pts is rod:
+                l_vec = -0.02 * E[g]  # the point minus the ray's closest point: the ray 2 cm off in g
+                got = beside_a_line(q, *idx, *l_vec, *E[f], 0.01, cfg.sheet_radius, cfg.sheet_min_points,
+                                    cfg.sheet_line_ratio, smap._P, smap._alive, smap._shadow, smap.head,
+                                    smap._next, smap.bucket_dims, smap._mark, -2)
+                assert got == (n == 4) == _reference(P, q, l_vec, E[f], 0.01, cfg)
+            else:
+                assert _along(smap, q, E[f], cfg, sin_min) == (n == 4) == _along_reference(P, q, E[f], cfg, sin_min)
