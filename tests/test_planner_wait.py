@@ -310,3 +310,117 @@ def test_a_stall_whose_searches_spent_their_budget_does_not_say_boxed_in(monkeyp
         "no way on found from here, nor from any point up to 1.5 m back along the path, within a search's budget "
         f"(SearchConfig.max_expansions = {planner.config.search.max_expansions}; a way may exist that is longer or "
         "more winding)")
+
+
+def test_a_patience_under_a_second_is_still_waited_out():
+    """Any patience above zero is a wait (0.5 s here): boxed in, it waits, forgetting, and gives up after it."""
+    planner = _boxed_in(FieldPlannerConfig(escape=EscapeConfig(patience=0.5)))
+    t_wait = _step_until(planner, lambda p: p.stalled or p.mode == "wait")
+    assert planner.mode == "wait" and not planner.stalled and planner.map.forgetting
+    t_stall = _step_until(planner, lambda p: p.stalled)
+    assert t_stall - t_wait == pytest.approx(0.5, abs=1.5 * DT)
+
+
+def test_a_way_on_found_by_the_wait_s_escape_ends_the_forgetting():
+    """The front face forgotten when an escape is due: the escape's search finds the way on from where the tip
+    waits, and the map, static again, stops forgetting (as when a search from here finds it)."""
+    planner = _boxed_in(FieldPlannerConfig(escape=EscapeConfig(patience=30.0)))
+    t_wait = _step_until(planner, lambda p: p.mode == "wait")
+    _step_until(planner, lambda p: p.time - t_wait > 4.5, t_max=t_wait + 5.0)
+    assert planner.map.forgetting
+    for _ in range(2):
+        planner.map.update(*_rays_through(_front_face()))
+    _step_until(planner, lambda p: p.mode != "wait", t_max=planner.time + 1.5)
+    assert not planner.stalled and planner.retreats == 0  # on from here, not from back along the path
+    assert not planner.map.forgetting and not planner.map.forgetting_for_a_while
+
+
+@pytest.mark.parametrize("spent", [False, True], ids=["reached", "budget-spent"])
+def test_the_mode_after_a_wait_says_whether_the_plan_reaches_the_goal(spent, monkeypatch):
+    """The face the tip was stopped by forgotten, its goal 0.6 m ahead (0.4 m beyond the face, in the open):
+    the plan through it reaches the goal, and the step on which the wait ends already says "plan"; if that
+    search spent its budget (``PARTIAL``, here made so), the tip explores on along it: "explore"."""
+    planner = FieldPlanner(np.zeros(3), X, [(0.6, 0.0, 0.0)], [0.02],
+                           FieldPlannerConfig(escape=EscapeConfig(patience=30.0)))
+    planner.map.add_points(box_surface([0.0, 0.0, 0.0], 0.2))
+    _step_until(planner, lambda p: p.mode == "wait")
+    if spent:
+        real = planner._plan_from
+
+        def plan_from(p, h, k, at=None, budget=None):
+            plan = real(p, h, k, at, budget)
+            return replace(plan, status=PARTIAL) if plan.status == REACHED else plan
+
+        monkeypatch.setattr(planner, "_plan_from", plan_from)
+    for _ in range(planner.config.map.initial_evidence):
+        planner.map.update(*_rays_through(_front_face()))
+    cmds = []
+    while planner.mode == "wait":
+        assert planner.time < 40.0
+        cmds.append(planner.step(DT, planner.path.head, X, None, 0))
+    assert not planner.stalled and planner.retreat is None
+    assert planner.follower.plan.status == (PARTIAL if spent else REACHED)
+    mode = "explore" if spent else "plan"
+    assert planner.mode == mode and cmds[-1].mode == mode
+
+
+def _far_wall(x: float) -> np.ndarray:
+    """Points across the way at ``x`` beyond the goal (off the way): the map forgets them as rays pass."""
+    y, z = np.meshgrid(np.arange(-0.3, 0.3, 0.01), np.arange(-0.3, 0.3, 0.01))
+    return np.column_stack([np.full(y.size, x), y.ravel(), z.ravel()])
+
+
+def _look_backs(planner: FieldPlanner, far: np.ndarray, t_max: float) -> tuple[float, float, list]:
+    """Wait boxed in, the map forgetting ``far`` in the wait's first second, until the planner gives up: (the
+    wait's start, the stall's [s], [(time into the wait [s], path end [m]) as each look-back begins])."""
+    planner.map.add_points(far)
+    t_wait = _step_until(planner, lambda p: p.mode == "wait")
+    batches = iter(range(0, 150, 5))
+    looks: list[tuple[float, float]] = []
+
+    def forget_early(p: FieldPlanner) -> None:
+        i = next(batches, None)
+        if i is not None:
+            for _ in range(2):
+                p.map.update(*_rays_through(far[i:i + 5]))
+        if p.mode == "retreat" and len(looks) < p.look_backs:
+            looks.append((p.time - t_wait, p.path.end_arc_length))
+
+    t_stall = _step_each(planner, lambda p: p.stalled, t_wait + t_max, forget_early)
+    return t_wait, t_stall, looks
+
+
+def test_no_look_back_begins_once_the_patience_is_out():
+    """Patience 7 s: the first look-back begins about 5 s into the wait and ends after the patience is out
+    (backing 0.15 m takes some 3.5 s); the planner then gives up rather than look back again."""
+    planner = _boxed_in_after_a_run(FieldPlannerConfig(escape=EscapeConfig(patience=7.0)))
+    t_wait, t_stall, looks = _look_backs(planner, _far_wall(2.3), 20.0)
+    assert planner.look_backs == 1 and len(looks) == 1 and looks[0][0] < 7.0
+    assert t_stall - t_wait >= 7.0 - 1e-9 and planner.stalled
+
+
+def test_with_a_short_backbone_the_look_backs_stop_at_the_tip_s_start():
+    """Links of 0.1 m (the tip's start 0.9 m of arc from the path's end behind it, as the path memory measures
+    it): 0.25 m on, the first look-back backs 0.15 m, the second the 0.1 m left, to the tip's start."""
+    cfg = FieldPlannerConfig(search=replace(FieldPlannerConfig().search, link_length=0.1),
+                             escape=EscapeConfig(patience=14.0))
+    planner = _boxed_in_after_a_run(cfg)
+    end, start = planner.path.end_arc_length, planner.path.start_arc_length
+    assert start < 1.0 and end - start > 0.2
+    _, _, looks = _look_backs(planner, _far_wall(2.3), 30.0)
+    assert planner.look_backs == 2 and looks[1][1] == pytest.approx(end - 0.15, abs=1e-6)
+    assert planner.path.end_arc_length == pytest.approx(start, abs=1e-6)
+
+
+@pytest.mark.parametrize("max_look_backs", [1, 2])
+def test_no_more_look_backs_for_a_goal_than_max_look_backs_with_path_left(max_look_backs):
+    """Look-backs of 0.05 m, 0.25 m on (path for five of them): it looks back ``EscapeConfig.max_look_backs``
+    times, each 0.05 m, then waits out the patience where the last one ended."""
+    cfg = FieldPlannerConfig(escape=EscapeConfig(patience=14.0, look_back=0.05, max_look_backs=max_look_backs))
+    planner = _boxed_in_after_a_run(cfg)
+    end = planner.path.end_arc_length
+    assert end - planner.path.start_arc_length > 0.2
+    t_wait, t_stall, looks = _look_backs(planner, _far_wall(2.3), 30.0)
+    assert t_stall - t_wait == pytest.approx(14.0, abs=1.5 * DT)
+    assert planner.look_backs == max_look_backs and len(looks) == max_look_backs
+    assert planner.path.end_arc_length == pytest.approx(end - 0.05 * max_look_backs, abs=1e-6)
