@@ -1,14 +1,16 @@
 """The sensed map's carving of a few trials, replayed alone: what one reading's free space and clean pass cost.
 
-Each world's trial runs once (slither controller, field planner, seed 0) with every call of the map's
-``_carve`` kernel captured (every array copied before the call: the map as the call found it).  Then the
-captured calls are replayed in order on fresh copies, ``--repeats`` times, and each replay's mean time per
-call is taken; printed per world: calls, and the median and best over the repeats [us per call].  Every
-replay must return the trial's own answer (removed and contradicted counts) and leave every array as the
-trial's call left it (the per-ray ``visit`` scratch apart), else the tool says so: the kernel is deterministic
-in its inputs.  Usage::
+Each world's trial runs once (slither controller, field planner, seed 0) with its calls of the map's ``_carve``
+kernel captured: every ``--every``-th call (default: enough to keep at most 200) with every array copied before
+the call (the map as the call found it) and a digest of each array after it.  Then the captured calls are
+replayed on fresh copies, ``--repeats`` times, each call timed alone (the copies made outside the timer, so
+a call finds the map's arrays in the caches, which a trial's call may not: compare versions, not trials); printed
+per world: calls captured of the trial's, and the median and best over the repeats of the mean time per call [us].
+Every replay must return the trial's own answer (removed and contradicted counts) and leave every array as the
+trial's call left it (the per-ray ``visit`` scratch apart), else the tool says so: the kernel is deterministic in
+its inputs.  Usage::
 
-    python tools/bench_carve.py [--repeats 7] [--worlds W.json ...]
+    python tools/bench_carve.py [--repeats 7] [--every N] [--worlds W.json ...]
 
 The default worlds are the paper demo, ``truss_clutter.json`` and slot-rack seed 5 (sparse goals).  Compare
 versions by running this tool in each, alternating, in one session: the machine's speed drifts.
@@ -17,6 +19,7 @@ versions by running this tool in each, alternating, in one session: the machine'
 from __future__ import annotations
 
 import argparse
+import hashlib
 import statistics
 import time
 
@@ -28,41 +31,74 @@ from navstack.trial import run_trial
 
 VISIT = 15
 """``_carve``'s argument index of ``visit``, the per-ray scratch tag of each bucket (not compared)."""
+MAX_CALLS = 200
+"""Calls kept per world by default: each keeps a copy of the map's arrays (a few MB)."""
 
 
 def _copy(args: list) -> list:
     return [a.copy() if isinstance(a, np.ndarray) else a for a in args]
 
 
-def capture(world) -> list[tuple[list, list, tuple]]:
-    """Every ``_carve`` call of ``world``'s trial: (arguments before, arguments after, returned value)."""
+def _digest(args: list) -> list:
+    """Each array argument's bytes hashed (``visit`` left out), other arguments as they are."""
+    return [None if k == VISIT else hashlib.sha1(a.tobytes()).hexdigest() if isinstance(a, np.ndarray) else a
+            for k, a in enumerate(args)]
+
+
+def capture(world, every: int | None) -> tuple[int, list[tuple[list, list, tuple]]]:
+    """``world``'s trial's ``_carve`` calls: how many in all, and every ``every``-th (default: at most 200) as
+    (arguments before, digests after, returned value)."""
     kernel = map_module._carve
-    calls = []
+    calls: list[tuple[list, list, tuple]] = []
+    n = 0
 
     def wrapped(*args):
-        before = _copy(list(args))
+        nonlocal n
+        keep = n % step == 0
+        n += 1
+        before = _copy(list(args)) if keep else None
         out = kernel(*args)
-        calls.append((before, _copy(list(args)), out))
+        if keep:
+            calls.append((before, _digest(list(args)), out))
         return out
 
+    step = every or max(1, -(-_count(world) // MAX_CALLS))  # default: a first run's calls thinned to 200
     map_module._carve = wrapped
     try:
         run_trial(world, seed=0)
     finally:
         map_module._carve = kernel
-    return calls
+    return n, calls
+
+
+def _count(world) -> int:
+    """How many ``_carve`` calls ``world``'s trial makes."""
+    kernel = map_module._carve
+    n = 0
+
+    def counted(*args):
+        nonlocal n
+        n += 1
+        return kernel(*args)
+
+    map_module._carve = counted
+    try:
+        run_trial(world, seed=0)
+    finally:
+        map_module._carve = kernel
+    return n
 
 
 def replay(calls: list[tuple[list, list, tuple]]) -> float:
-    """One replay of ``calls`` on fresh copies, checked against the trial's; mean seconds per call."""
-    fresh = [_copy(before) for before, _, _ in calls]
-    t0 = time.perf_counter()
-    outs = [map_module._carve(*args) for args in fresh]
-    elapsed = time.perf_counter() - t0
-    for n, ((_, after, out), args, got) in enumerate(zip(calls, fresh, outs, strict=True)):
-        same = got == out and all(not isinstance(a, np.ndarray) or k == VISIT or np.array_equal(a, b, equal_nan=True)
-                                  for k, (a, b) in enumerate(zip(args, after, strict=True)))
-        if not same:
+    """One replay of ``calls``, each on fresh copies and timed alone, checked against the trial's; mean seconds
+    per call."""
+    elapsed = 0.0
+    for n, (before, after, out) in enumerate(calls):
+        args = _copy(before)
+        t0 = time.perf_counter()
+        got = map_module._carve(*args)
+        elapsed += time.perf_counter() - t0
+        if got != out or _digest(args) != after:
             raise SystemExit(f"error: replayed call {n} differs from the trial's")
     return elapsed / max(len(calls), 1)
 
@@ -70,15 +106,18 @@ def replay(calls: list[tuple[list, list, tuple]]) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=7, help="replays per world (default 7)")
+    parser.add_argument("--every", type=int, help=f"keep every N-th call (default: at most {MAX_CALLS} calls)")
     parser.add_argument("--worlds", nargs="+", metavar="W.json", help=HELP)
     args = parser.parse_args()
     if args.repeats < 1:
         parser.error("--repeats must be at least 1")
-    print(f"{'world':34s} {'calls':>6s} {'median us':>10s} {'best us':>8s}")
+    if args.every is not None and args.every < 1:
+        parser.error("--every must be at least 1")
+    print(f"{'world':34s} {'calls':>11s} {'median us':>10s} {'best us':>8s}")
     for label, world in bench_worlds(args.worlds):
-        calls = capture(world)
+        total, calls = capture(world, args.every)
         times = [replay(calls) * 1e6 for _ in range(args.repeats)]
-        print(f"{label:34s} {len(calls):6d} {statistics.median(times):10.1f} {min(times):8.1f}")
+        print(f"{label:34s} {len(calls):4d} of {total:4d} {statistics.median(times):10.1f} {min(times):8.1f}")
 
 
 if __name__ == "__main__":
