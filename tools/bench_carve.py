@@ -45,48 +45,46 @@ def _digest(args: list) -> list:
             for k, a in enumerate(args)]
 
 
-def capture(world, every: int | None) -> tuple[int, list[tuple[list, list, tuple]]]:
-    """``world``'s trial's ``_carve`` calls: how many in all, and every ``every``-th (default: at most 200) as
-    (arguments before, digests after, returned value)."""
+def _trial_with_carve(world, wrap) -> None:
+    """Run ``world``'s trial (seed 0) with ``_carve`` replaced by ``wrap(kernel)``, restored after (as
+    ``bench_search.py`` does the search kernel)."""
     kernel = map_module._carve
+    map_module._carve = wrap(kernel)
+    try:
+        result = run_trial(world, seed=0)
+    finally:
+        map_module._carve = kernel
+    if result.reason == "error":
+        raise SystemExit(f"error: the trial on {world.name} failed: {result.error}")
+
+
+def capture(world, every: int | None) -> tuple[int, list[tuple[list, list, tuple]]]:
+    """``world``'s trial's ``_carve`` calls: how many in all, and every ``every``-th (default: a first run's
+    count thinned to at most ``MAX_CALLS``) as (arguments before, digests after, returned value)."""
     calls: list[tuple[list, list, tuple]] = []
     n = 0
+    step = 0  # 0: count only
 
-    def wrapped(*args):
-        nonlocal n
-        keep = n % step == 0
-        n += 1
-        before = _copy(list(args)) if keep else None
-        out = kernel(*args)
-        if keep:
-            calls.append((before, _digest(list(args)), out))
-        return out
+    def recording(kernel):
+        def call(*args):
+            nonlocal n
+            keep = step > 0 and n % step == 0
+            n += 1
+            before = _copy(list(args)) if keep else None
+            out = kernel(*args)
+            if keep:
+                calls.append((before, _digest(list(args)), out))
+            return out
 
-    step = every or max(1, -(-_count(world) // MAX_CALLS))  # default: a first run's calls thinned to 200
-    map_module._carve = wrapped
-    try:
-        run_trial(world, seed=0)
-    finally:
-        map_module._carve = kernel
+        return call
+
+    if every is None:
+        _trial_with_carve(world, recording)
+        step, n = max(1, -(-n // MAX_CALLS)), 0
+    else:
+        step = every
+    _trial_with_carve(world, recording)
     return n, calls
-
-
-def _count(world) -> int:
-    """How many ``_carve`` calls ``world``'s trial makes."""
-    kernel = map_module._carve
-    n = 0
-
-    def counted(*args):
-        nonlocal n
-        n += 1
-        return kernel(*args)
-
-    map_module._carve = counted
-    try:
-        run_trial(world, seed=0)
-    finally:
-        map_module._carve = kernel
-    return n
 
 
 def replay(calls: list[tuple[list, list, tuple]]) -> float:
