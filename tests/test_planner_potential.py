@@ -14,10 +14,12 @@ import math
 import numpy as np
 import pytest
 from _clouds import box_surface
+from scipy.ndimage import gaussian_filter
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
+from navstack.planner import potential
 from navstack.planner.map import MapConfig, SensedMap
 from navstack.planner.potential import BLOCKED, Repulsion, cost_rate, navigation_function
 from navstack.planner.proximity import point_index
@@ -383,6 +385,62 @@ def test_unseen_space_near_surfaces_costs_more_in_the_navigation_function():
 # ---------------------------------------------------------------------------- the wavefront runs on demand
 def _settled(nav) -> int:
     return int((nav.wave[4] == -2).sum())
+
+
+def _grid_dijkstra(cost: np.ndarray, seeds: np.ndarray, cell: float) -> np.ndarray:
+    """scipy's Dijkstra over the 26-connected grid of ``cost`` (< 0 blocked), each step costing its length times
+    (1 + the mean of its cells' costs), from the flat cells ``seeds``: the wavefront's definition, a second
+    implementation."""
+    shape = cost.shape
+    idx = np.indices(shape).reshape(3, -1).T
+    flat = np.arange(cost.size).reshape(shape)
+    c = cost.reshape(-1)
+    rows, cols, w = [], [], []
+    for step in np.ndindex(3, 3, 3):
+        step = np.array(step) - 1
+        if not step.any():
+            continue
+        j = idx + step
+        ok = np.all((j >= 0) & (j < shape), axis=1)
+        a, b = flat[tuple(idx[ok].T)], flat[tuple(j[ok].T)]
+        good = (c[a] >= 0) & (c[b] >= 0)
+        a, b = a[good], b[good]
+        rows.append(a)
+        cols.append(b)
+        w.append(cell * math.sqrt(float(step @ step)) * (1.0 + 0.5 * (c[a] + c[b])))
+    graph = coo_matrix((np.concatenate(w), (np.concatenate(rows), np.concatenate(cols))),
+                       shape=(cost.size, cost.size)).tocsr()
+    return dijkstra(graph, indices=seeds, min_only=True).reshape(shape)
+
+
+def _blob_costs(seed: int, shape: tuple[int, int, int], dearest: float) -> np.ndarray:
+    """A cost grid of blobs, as a map's: smoothed noise cut into free (0), unseen (0.05), unseen near a
+    surface (``dearest``) and blocked (-1) regions."""
+    base = gaussian_filter(np.random.default_rng(seed).random(shape), 1.5)
+    q = np.quantile(base, [0.4, 0.7, 0.88])
+    return np.select([base > q[2], base > q[1], base > q[0]], [-1.0, dearest, 0.05], 0.0)
+
+
+@pytest.mark.parametrize("dearest", [0.05, 6.0, 250.0])
+def test_the_wavefront_equals_dijkstra_bit_for_bit_on_random_cost_grids(dearest):
+    """The bucket queue settles a bucket's cells in any order; the values must still be Dijkstra's, bit for bit:
+    ten grids of cost blobs along a tube (few ways round, so a wrong order shows), each seeded at one end
+    cell, asked one cell at a time in a random order, then finished.  ``dearest`` 250: a step costs up to 436
+    bucket widths, so the ring of buckets wraps round many times on the way."""
+    cell, origin, shape = 0.02, np.zeros(3), (40, 6, 6)
+    for seed in range(10):
+        cost = _blob_costs(seed, shape, dearest)
+        goal_cell = np.array([0, 3, 3])
+        cost[tuple(goal_cell)] = 0.0
+        wave = potential._wave_state(cost, cell)
+        potential._wave_seed(wave, origin + (goal_cell + 0.5) * cell, 0.0, origin, cell)  # the goal's cell only
+        ref = _grid_dijkstra(cost, np.ravel_multi_index(tuple(goal_cell), shape), cell)
+        assert np.isfinite(ref).sum() > 0.3 * cost.size, seed
+        nav = potential.NavigationFunction(origin, cell, np.empty(shape), wave)
+        rng = np.random.default_rng(seed)
+        for c in rng.permutation(np.argwhere(cost >= 0))[:40]:
+            assert nav.lookup(origin + (c + 0.5) * cell) == ref[tuple(c)], (seed, c)
+        np.testing.assert_array_equal(nav.values, ref)
 
 
 @pytest.mark.parametrize("seen", [True, False])

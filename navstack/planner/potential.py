@@ -156,6 +156,8 @@ class NavigationFunction:
         """The whole grid of values [m] (finishes the wavefront first)."""
         if self._wave[5][0] > 0:  # cells still queued (the heap's size)
             _wave_settle(self._wave, -1)
+        nx, ny, nz = self._values.shape
+        self._values[...] = self._wave[1].reshape(nx + 2, ny + 2, nz + 2)[1:-1, 1:-1, 1:-1]
         return self._values
 
     @property
@@ -208,79 +210,89 @@ def _rasterize(P, alive, n, origin, cell, dims, radius, out, value):  # pragma: 
                         break
 
 
-@numba.njit(cache=True, inline="always")
-def _sift_up(keys, cells, pos, i):  # pragma: no cover - jitted
-    """Move heap entry ``i`` up to its place; ``pos[cell]`` tracks each cell's entry."""
-    key = keys[i]
-    cell = cells[i]
-    while i > 0:
-        parent = (i - 1) >> 1
-        if keys[parent] <= key:
-            break
-        keys[i] = keys[parent]
-        cells[i] = cells[parent]
-        pos[cells[i]] = i
-        i = parent
-    keys[i] = key
-    cells[i] = cell
-    pos[cell] = i
+_NEIGHBOURS = np.array([(di, dj, dk) for di in (-1, 0, 1) for dj in (-1, 0, 1) for dk in (-1, 0, 1)
+                        if (di, dj, dk) != (0, 0, 0)])
+"""The 26 neighbours' (di, dj, dk), in the order the wavefront relaxes them."""
 
 
-@numba.njit(cache=True, inline="always")
-def _pop_min(keys, cells, pos, n):  # pragma: no cover - jitted
-    """Remove the smallest entry of the heap ``keys[:n]``; returns (key, cell, new size)."""
-    key0 = keys[0]
-    cell0 = cells[0]
-    pos[cell0] = -2  # done
-    n -= 1
-    if n == 0:
-        return key0, cell0, n
-    key = keys[n]
-    cell = cells[n]
-    i = 0
-    while True:
-        c = 2 * i + 1
-        if c >= n:
-            break
-        if c + 1 < n and keys[c + 1] < keys[c]:
-            c += 1
-        if keys[c] >= key:
-            break
-        keys[i] = keys[c]
-        cells[i] = cells[c]
-        pos[cells[i]] = i
-        i = c
-    keys[i] = key
-    cells[i] = cell
-    pos[cell] = i
-    return key0, cell0, n
+def _wave_state(cost: NDArray[np.float64], cell: float) -> tuple:
+    """The paused wavefront over ``cost`` (per-metre weight, < 0 = blocked).
 
-
-def _wave_state(cost: NDArray[np.float64], out: NDArray[np.float64], cell: float) -> tuple:
-    """The paused wavefront: (cost, flat values, heap keys, heap cells, heap position per cell, [heap size],
-    step lengths [m]), over ``cost`` (per-metre weight, < 0 = blocked) with the values in ``out``."""
-    ncell = cost.size
-    d = np.array([(di * di + dj * dj + dk * dk) for di in (-1, 0, 1) for dj in (-1, 0, 1) for dk in (-1, 0, 1)])
-    steps = cell * np.sqrt(d.astype(np.float64))
-    return (cost, out.reshape(ncell), np.empty(ncell), np.empty(ncell, dtype=np.int64),
-            np.full(ncell, -1, dtype=np.int64), np.zeros(1, dtype=np.int64), steps)
+    Held on the grid padded by one blocked cell all round, so that a neighbour needs no bounds test; the queue
+    is a ring of buckets (Dial's), each a doubly linked list of cells.  A bucket spans a quarter of the
+    shortest step's cost (a step costs its length times at least 1, so at least ``cell``), so no cell can
+    lower another of its own bucket (:func:`_wave_settle`), and the ring spans the dearest step and more.
+    The tuple: (cost, values, next cell, previous cell, bucket per cell, [cells queued, current bucket],
+    the 26 neighbours' step lengths [m], padded costs, the 26 neighbours' flat offsets, the buckets' first
+    cells, [bucket width [m]]); values, links, buckets and padded costs are flat over the padded grid; a
+    cell's bucket is -1 before it is queued and -2 once settled.
+    """
+    nx, ny, nz = cost.shape
+    padded = np.full((nx + 2, ny + 2, nz + 2), -1.0)
+    padded[1:-1, 1:-1, 1:-1] = cost
+    n_pad = padded.size
+    d2 = (_NEIGHBOURS * _NEIGHBOURS).sum(axis=1)
+    steps = cell * np.sqrt(d2.astype(np.float64))
+    offsets = (_NEIGHBOURS[:, 0] * (ny + 2) + _NEIGHBOURS[:, 1]) * (nz + 2) + _NEIGHBOURS[:, 2]
+    width = 0.25 * cell
+    dearest = float(steps.max()) * (1.0 + max(float(cost.max(initial=0.0)), 0.0))
+    n_buckets = int(math.ceil(dearest / width)) + 4
+    links = np.empty(n_pad, dtype=np.int64)
+    return (cost, np.full(n_pad, np.inf), links, links.copy(), np.full(n_pad, -1, dtype=np.int64),
+            np.zeros(2, dtype=np.int64), steps, padded.reshape(n_pad), offsets.astype(np.int64),
+            np.full(n_buckets, -1, dtype=np.int64), np.array([width]))
 
 
 def _done_state(values: NDArray[np.float64]) -> tuple:
     """The state of a finished wavefront over ``values`` (nothing left to settle)."""
-    state = _wave_state(np.zeros(values.shape), values, 1.0)
+    state = _wave_state(np.zeros(values.shape), 1.0)
+    nx, ny, nz = values.shape
+    state[1].reshape(nx + 2, ny + 2, nz + 2)[1:-1, 1:-1, 1:-1] = values
     state[4][:] = -2
     return state
+
+
+@numba.njit(cache=True, inline="always")
+def _padded_index(cost, i, j, k):  # pragma: no cover - jitted
+    """The flat index on the padded grid of cell (i, j, k) of ``cost``'s grid."""
+    return ((i + 1) * (cost.shape[1] + 2) + j + 1) * (cost.shape[2] + 2) + k + 1
+
+
+@numba.njit(cache=True, inline="always")
+def _enqueue(wave, c, value):  # pragma: no cover - jitted
+    """Put cell ``c`` first in the bucket of ``value`` [m]."""
+    nxt, prv, bucket, heads = wave[2], wave[3], wave[4], wave[9]
+    b = int(value / wave[10][0]) % heads.shape[0]
+    h = heads[b]
+    nxt[c] = h
+    prv[c] = -1
+    if h >= 0:
+        prv[h] = c
+    heads[b] = c
+    bucket[c] = b
+
+
+@numba.njit(cache=True, inline="always")
+def _unlink(wave, c):  # pragma: no cover - jitted
+    """Take cell ``c`` out of its bucket."""
+    nxt, prv, bucket, heads = wave[2], wave[3], wave[4], wave[9]
+    if prv[c] >= 0:
+        nxt[prv[c]] = nxt[c]
+    else:
+        heads[bucket[c]] = nxt[c]
+    if nxt[c] >= 0:
+        prv[nxt[c]] = prv[c]
 
 
 @kernel
 def _wave_seed(wave, goal, reach, origin, cell):  # pragma: no cover - jitted
     """Start the wavefront: every value ``inf`` but the cells within ``reach`` of ``goal`` (0, queued), and
     the goal's own cell (a ball smaller than a cell may hold no cell's centre: the wave was then empty)."""
-    cost, flat, keys, cells, pos, heap, _ = wave
+    cost, flat, bucket, meta, heads = wave[0], wave[1], wave[4], wave[5], wave[9]
     nx, ny, nz = cost.shape
     flat[:] = np.inf
-    pos[:] = -1
+    bucket[:] = -1
+    heads[:] = -1
     n = 0
     gi = int(math.floor((goal[0] - origin[0]) / cell))
     gj = int(math.floor((goal[1] - origin[1]) / cell))
@@ -294,58 +306,62 @@ def _wave_seed(wave, goal, reach, origin, cell):  # pragma: no cover - jitted
                 z = origin[2] + (k + 0.5) * cell - goal[2]
                 own = i == gi and j == gj and k == gk
                 if (own or x * x + y * y + z * z <= (reach + 0.5 * cell) ** 2) and cost[i, j, k] >= 0.0:
-                    idx = (i * ny + j) * nz + k
+                    idx = _padded_index(cost, i, j, k)
                     flat[idx] = 0.0
-                    keys[n] = 0.0
-                    cells[n] = idx
-                    _sift_up(keys, cells, pos, n)
+                    _enqueue(wave, idx, 0.0)
                     n += 1
-    heap[0] = n
+    meta[0] = n
+    meta[1] = 0
 
 
 @kernel
 def _wave_settle(wave, target):  # pragma: no cover - jitted
-    """Run the wavefront on until cell ``target`` (flat index) is settled or nothing is left (``target < 0``:
-    to the end).  An indexed binary heap (each cell at most once, its key lowered in place); the values are the
-    unique solution of the relaxation equations (positive steps), so they do not depend on the order of ties."""
-    cost, flat, keys, cells, pos, heap, steps = wave
-    nx, ny, nz = cost.shape
-    n = heap[0]
-    while n > 0 and (target < 0 or pos[target] != -2):
-        d, idx, n = _pop_min(keys, cells, pos, n)
-        k = idx % nz
-        j = (idx // nz) % ny
-        i = idx // (ny * nz)
-        c0 = cost[i, j, k]
-        for di in range(-1, 2):
-            ii = i + di
-            if ii < 0 or ii >= nx:
+    """Run the wavefront on until cell ``target`` (flat index on the padded grid) is settled or nothing is left
+    (``target < 0``: to the end).
+
+    Dijkstra's algorithm with a ring of buckets for its queue (Dial's): the cells of the lowest bucket are
+    settled in any order.  That gives Dijkstra's values bit for bit: a step costs at least 4 bucket widths
+    (:func:`_wave_state`), so a cell settled from bucket ``b`` (value below ``b + 1`` widths, up to rounding)
+    cannot be lowered by any cell still queued (values from ``b`` widths on) plus a step, and a queued cell
+    is always ahead of the current bucket and less than the ring's span ahead.  Each value is then the
+    least over its neighbours of (their value + the step's cost), computed as one expression: the unique
+    solution of the relaxation equations, whatever the order of ties or of a bucket's cells.  The padding's
+    blocked cells stand for the grid's edge."""
+    flat, nxt, bucket, meta, steps = wave[1], wave[2], wave[4], wave[5], wave[6]
+    cost, offsets, heads = wave[7], wave[8], wave[9]
+    n_buckets = heads.shape[0]
+    n = meta[0]
+    cur = meta[1]
+    while n > 0 and (target < 0 or bucket[target] != -2):
+        while heads[cur] < 0:
+            cur += 1
+            if cur == n_buckets:
+                cur = 0
+        idx = heads[cur]
+        heads[cur] = nxt[idx]
+        if nxt[idx] >= 0:
+            wave[3][nxt[idx]] = -1
+        bucket[idx] = -2
+        n -= 1
+        d = flat[idx]
+        c0 = cost[idx]
+        for t in range(26):
+            nb = idx + offsets[t]
+            c = cost[nb]
+            if c < 0.0:
                 continue
-            for dj in range(-1, 2):
-                jj = j + dj
-                if jj < 0 or jj >= ny:
-                    continue
-                for dk in range(-1, 2):
-                    kk = k + dk
-                    if kk < 0 or kk >= nz or (di == 0 and dj == 0 and dk == 0):
-                        continue
-                    c = cost[ii, jj, kk]
-                    if c < 0.0:
-                        continue
-                    nb = (ii * ny + jj) * nz + kk
-                    nd = d + steps[(di + 1) * 9 + (dj + 1) * 3 + dk + 1] * (1.0 + 0.5 * (c + c0))
-                    if nd < flat[nb]:
-                        flat[nb] = nd
-                        p = pos[nb]
-                        if p == -1:
-                            keys[n] = nd
-                            cells[n] = nb
-                            _sift_up(keys, cells, pos, n)
-                            n += 1
-                        elif p >= 0:  # queued: lower its key (a finished cell, -2, is never improved)
-                            keys[p] = nd
-                            _sift_up(keys, cells, pos, p)
-    heap[0] = n
+            nd = d + steps[t] * (1.0 + 0.5 * (c + c0))
+            if nd < flat[nb]:
+                flat[nb] = nd
+                b = bucket[nb]
+                if b == -1:
+                    _enqueue(wave, nb, nd)
+                    n += 1
+                elif b >= 0 and int(nd / wave[10][0]) % n_buckets != b:  # queued: to its lower bucket
+                    _unlink(wave, nb)
+                    _enqueue(wave, nb, nd)
+    meta[0] = n
+    meta[1] = cur
 
 
 @numba.njit(cache=True, inline="always")
@@ -353,7 +369,7 @@ def wave_value(wave, i, j, k):  # pragma: no cover - jitted
     """The final value of cell (i, j, k), running the wavefront on as far as that needs (a blocked cell is
     never reached: ``inf`` at once)."""
     cost = wave[0]
-    idx = (i * cost.shape[1] + j) * cost.shape[2] + k
+    idx = _padded_index(cost, i, j, k)
     if wave[5][0] > 0 and wave[4][idx] != -2 and cost[i, j, k] >= 0.0:
         _wave_settle(wave, idx)
     return wave[1][idx]
@@ -379,6 +395,6 @@ def navigation_function(smap, goal: NDArray[np.float64], reach: float, lo: NDArr
     half_diag = 0.5 * math.sqrt(3.0) * fcell
     _rasterize(P, alive, n, origin, fcell, dims, max(repulsion.r_block - half_diag, 0.0), cost, -1.0)
     out = np.empty(tuple(dims))
-    wave = _wave_state(cost, out, fcell)
+    wave = _wave_state(cost, fcell)
     _wave_seed(wave, np.asarray(goal, dtype=np.float64), float(reach), origin, fcell)
     return NavigationFunction(origin, fcell, out, wave)  # settled on demand
