@@ -130,8 +130,8 @@ class NavigationFunction:
     voxels that close a 1.5-3 cm corridor mislead the planner); ``inf`` where unreachable.
 
     The wavefront runs **on demand**: a cell's value is final once Dijkstra has settled it, and
-    Dijkstra settles cells in order of value, so :meth:`lookup` (and the search, through
-    :attr:`wave`) run it on only until the cell asked for is settled.  A search from a start at
+    Dijkstra settles cells in order of value (here a bucket of values at a time, :func:`_wave_settle`), so
+    :meth:`lookup` (and the search, through :attr:`wave`) run it on only until the cell asked for is settled.  A search from a start at
     cost-to-go ``V`` rarely needs cells much above ``V``: the trials settle 8 % of their grids' cells
     (24 % on a slot rack; the grid spans the start and the goal with a margin all round, and is
     recomputed as the tip closes in).  The values are those of the whole wavefront, bit for bit,
@@ -140,7 +140,7 @@ class NavigationFunction:
 
     Args:
         origin: (3,) the grid's lower corner [m]; cell: its cell size [m].
-        values: the grid of values [m]: final where settled, ``inf`` where never reached.
+        values: the grid of values [m] if complete; with ``wave``, the array :attr:`values` fills.
         wave: the paused wavefront (:func:`_wave_state`), or ``None`` if ``values`` is complete.
     """
 
@@ -154,7 +154,7 @@ class NavigationFunction:
     @property
     def values(self) -> NDArray[np.float64]:
         """The whole grid of values [m] (finishes the wavefront first)."""
-        if self._wave[5][0] > 0:  # cells still queued (the heap's size)
+        if self._wave[5][0] > 0:  # cells still queued
             _wave_settle(self._wave, -1)
         nx, ny, nz = self._values.shape
         self._values[...] = self._wave[1].reshape(nx + 2, ny + 2, nz + 2)[1:-1, 1:-1, 1:-1]
