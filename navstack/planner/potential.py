@@ -131,8 +131,9 @@ class NavigationFunction:
 
     The wavefront runs **on demand**: a cell's value is final once Dijkstra has settled it, and
     Dijkstra settles cells in order of value (here a bucket of values at a time, :func:`_wave_settle`), so
-    :meth:`lookup` (and the search, through :attr:`wave`) run it on only until the cell asked for is settled.  A search from a start at
-    cost-to-go ``V`` rarely needs cells much above ``V``: the trials settle 8 % of their grids' cells
+    :meth:`lookup` (and the search, through :attr:`wave`) run it on only until the cell asked for is
+    settled.  A search from a start at cost-to-go ``V`` rarely needs cells much above ``V``: the trials
+    settle 8 % of their grids' cells
     (24 % on a slot rack; the grid spans the start and the goal with a margin all round, and is
     recomputed as the tip closes in).  The values are those of the whole wavefront, bit for bit,
     whatever the order of the questions (the same pops in the same order, only paused).
