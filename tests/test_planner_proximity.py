@@ -212,6 +212,33 @@ def test_distances_below_is_distance_below_bit_for_bit_on_dense_surfaces(seed):
     assert below > 1500
 
 
+@pytest.mark.parametrize("axis", [0, 1])
+def test_distances_below_finds_a_point_on_a_bucket_face_just_inside_r(axis):
+    """A point on a bucket's face, the samples in the column beside it at its height: its distance is the
+    column's horizontal gap itself, and with ``r`` 0.1 um beyond it, it must be found (a column is passed over
+    only when its gap, less a slack, is no nearer than a sample's best), bit for bit as point by point."""
+    from navstack.planner.proximity import distances_below
+
+    smap = SensedMap([0.0, 0.0, 0.0], [0.5, 0.4, 0.3], MapConfig(margin=0.1))
+    origin, bucket = point_index(smap)[3], smap.config.bucket
+    face = np.array([0.2, 0.2, 0.12])
+    face[axis] = origin[axis] + 7 * bucket  # exactly on the face between bucket rows 6 and 7
+    smap.add_points(face[None])
+    index = point_index(smap)
+    live = smap.points[0]
+    out = np.empty(3)
+    for gap in (0.003, 0.011, 0.029, 0.047, 0.061):
+        xs = np.repeat(live[None], 3, axis=0)
+        xs[:, axis] -= gap  # in row 6, the point's column's neighbour, at the point's height
+        xs[1:, 1 - axis] += (0.004, -0.006)
+        true = np.linalg.norm(xs - live, axis=1)
+        for r in (true[0] + 1e-7, true[0] - 1e-7):
+            distances_below(xs, 3, r, out, *index)
+            want = [distance_below(*x, r, *index) for x in xs]
+            assert out.tolist() == want, (gap, r)
+            assert (out[0] < r) == (true[0] < r) and (out[0] == pytest.approx(true[0], abs=1e-12) or true[0] >= r)
+
+
 def test_point_index_is_shared_at_one_revision_and_renewed_by_every_change():
     smap = SensedMap([0.0, 0.0, 0.0], [0.5, 0.4, 0.3], MapConfig(margin=0.1))
     smap.add_points(np.array([[0.1, 0.1, 0.1], [0.3, 0.2, 0.1]]))

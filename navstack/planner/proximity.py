@@ -267,6 +267,7 @@ def segment_distance_below(ax, ay, az, bx, by, bz, r, first, occ, start, S, orig
     n = max(1, int(math.ceil(length / h)))
     r2 = r * r
     best = r2
+    pi, pj, pk = -(1 << 40), -(1 << 40), -(1 << 40)  # the previous sample's bucket (none yet)
     for t in range(n + 1):
         f = t / n
         x, y, z = ax + f * dx, ay + f * dy, az + f * dz
@@ -274,13 +275,23 @@ def segment_distance_below(ax, ay, az, bx, by, bz, r, first, occ, start, S, orig
         j = _cell(y, origin, bucket, dims, 1)
         k = _cell(z, origin, bucket, dims, 2)
         if (m == 1 and occ[i, j, k] & ADJACENT == 0) or (m == REACH and occ[i, j, k] == 0):
-            continue  # no point within m buckets
+            pi, pj, pk = i, j, k  # no point within m buckets: its box is empty, as good as scanned
+            continue
         k0 = max(k - m, 0)
         k1 = min(k + m + 1, dims[2])
         for ii in range(max(i - m, 0), min(i + m + 1, dims[0])):
             for jj in range(max(j - m, 0), min(j + m + 1, dims[1])):
                 base = (ii * dims[1] + jj) * dims[2]  # the column's buckets k0 .. k1 - 1
-                for q in range(start[base + k0], start[base + k1]):
+                a, b = k0, k1
+                c0, c1 = k0, k0  # the heights the previous sample's box scanned in this column
+                if abs(ii - pi) <= m and abs(jj - pj) <= m:
+                    c0, c1 = max(pk - m, k0), min(pk + m + 1, k1)
+                if c0 < c1:  # scan only the heights below and above them (the boxes are the same size)
+                    if c0 > k0:
+                        b = c0
+                    else:
+                        a, b = c1, k1
+                for q in range(start[base + a], start[base + b]):
                     wx, wy, wz = S[q, 0] - ax, S[q, 1] - ay, S[q, 2] - az
                     u = (wx * dx + wy * dy + wz * dz) / dd if dd > 0.0 else 0.0
                     u = 0.0 if u < 0.0 else (1.0 if u > 1.0 else u)
@@ -290,6 +301,7 @@ def segment_distance_below(ax, ay, az, bx, by, bz, r, first, occ, start, S, orig
                         best = d2
                         if first and math.sqrt(d2) < r:
                             return math.sqrt(d2)
+        pi, pj, pk = i, j, k
     return math.sqrt(best)
 
 
@@ -320,13 +332,20 @@ def distances_below(xs, n, r, out, occ, start, S, origin, bucket, dims):  # prag
         k0 = max(lo2 - m, 0)
         k1 = min(hi2 + m + 1, dims[2])
         for i in range(max(lo0 - m, 0), min(hi0 + m + 1, dims[0])):
+            xlo, xhi = _slab(i, origin, bucket, dims, 0)
             for j in range(max(lo1 - m, 0), min(hi1 + m + 1, dims[1])):
                 base = (i * dims[1] + j) * dims[2]  # the column's buckets k0 .. k1 - 1
                 a, b = start[base + k0], start[base + k1]
+                if a == b:
+                    continue
                 if b - a > _PRUNE_RUN:  # a long run: keep to the heights where a nearer point can be
                     a, b = _narrow(xs, n, out, i, j, k0, k1, base, start, origin, bucket, dims)
+                ylo, yhi = _slab(j, origin, bucket, dims, 1)
                 for t in range(n):
-                    out[t] = _run_min(S, a, b, xs[t, 0], xs[t, 1], xs[t, 2], out[t])
+                    gx = _gap(xs[t, 0], xlo, xhi)
+                    gy = _gap(xs[t, 1], ylo, yhi)
+                    if gx * gx + gy * gy < out[t]:  # else no point of the column is nearer than its best
+                        out[t] = _run_min(S, a, b, xs[t, 0], xs[t, 1], xs[t, 2], out[t])
     for t in range(n):
         out[t] = math.sqrt(out[t])
 
