@@ -11,7 +11,7 @@ median over ``--repeats`` runs.  The replays and the trial can disagree: a chang
 faster made the searches 10 % slower in the trial (issue 11, ninth round: the search's own hash table, its
 arrays' reference counts), so a change is judged by both.  Usage::
 
-    python tools/bench_search.py [--repeats 3] [--worlds W.json ...]
+    python tools/bench_search.py [--repeats 3] [--every N] [--worlds W.json ...]
 
 The default worlds are the paper demo, ``truss_clutter.json`` and slot-rack seed 5 (sparse goals).  Compare
 versions by running this tool in each, alternating, in one session: the machine's speed drifts.
@@ -47,12 +47,17 @@ def _trial_with_kernel(world: World, wrap) -> None:
         raise RuntimeError(f"trial on {world.name} failed: {result.error}")
 
 
-def capture(world: World) -> list[tuple[tuple, tuple, list[np.ndarray]]]:
-    """Run ``world``'s trial; every search kernel call as (inputs copied before, outputs, node arrays after)."""
+def capture(world: World, every: int = 1) -> list[tuple[tuple, tuple, list[np.ndarray]]]:
+    """Run ``world``'s trial; every ``every``-th search kernel call as (inputs copied before, outputs, node arrays
+    after)."""
     calls = []
+    seen = [0]
 
     def recording(kernel):
         def call(*args):
+            seen[0] += 1
+            if (seen[0] - 1) % every:
+                return kernel(*args)
             before = copy.deepcopy(args)
             out = kernel(*args)
             calls.append((before, tuple(out), [np.array(a[: out[3]]) for a in args[-NODE_ARRAYS:]]))
@@ -110,13 +115,17 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--worlds", nargs="+", default=None, help=HELP)
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--every", type=int, default=1,
+                    help="replay every N-th search only (each copy holds the map: a trial of hundreds of searches)")
     args = ap.parse_args()
+    if args.repeats < 1 or args.every < 1:
+        ap.error("--repeats and --every must be at least 1")
     worlds = bench_worlds(args.worlds)
     run_trial(worlds[0][1], seed=0, config=TrialConfig())  # compile and load everything once
     print(f"{'world':34s} {'searches':>8s} {'best-of-' + str(args.repeats) + ' ms':>12s} {'expansions':>10s} "
           f"{'us/exp':>7s} {'budget spent':>12s} {'in trial ms':>11s}")
     for label, world in worlds:
-        calls = capture(world)
+        calls = capture(world, args.every)
         total, expansions, spent, mismatches = replay(calls, args.repeats)
         trial = in_trial(world, args.repeats)
         print(f"{label:34s} {len(calls):8d} {1e3 * total:12.1f} {expansions:10d} "
