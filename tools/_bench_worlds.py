@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
+from types import ModuleType
 
 from navstack.world import World, WorldError, load_world
 
@@ -23,3 +25,18 @@ def bench_worlds(paths: list[str] | None) -> list[tuple[str, World]]:
     return [("paper_truss (demo)", load_world(ROOT / "worlds" / "paper_truss.json")),
             ("truss_clutter", load_world(ROOT / "worlds" / "truss_clutter.json")),
             ("slot-rack seed 5 (sparse goals)", generate_world("slot-rack", 5))]
+
+
+def trial_with(world: World, module: ModuleType, name: str, wrap: Callable) -> None:
+    """Run ``world``'s trial (slither controller, field planner, seed 0) with ``module.name`` replaced by
+    ``wrap(original)``, restored after; a failed trial stops the tool with its error."""
+    from navstack.trial import run_trial
+
+    original = getattr(module, name)
+    setattr(module, name, wrap(original))
+    try:
+        result = run_trial(world, seed=0)
+    finally:
+        setattr(module, name, original)
+    if result.reason == "error":
+        raise SystemExit(f"error: the trial on {world.name} failed: {result.error}")

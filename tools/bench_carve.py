@@ -24,10 +24,9 @@ import statistics
 import time
 
 import numpy as np
-from _bench_worlds import HELP, bench_worlds
+from _bench_worlds import HELP, bench_worlds, trial_with
 
 import navstack.planner.map as map_module
-from navstack.trial import run_trial
 
 VISIT = 15
 """``_carve``'s argument index of ``visit``, the per-ray scratch tag of each bucket (not compared)."""
@@ -43,19 +42,6 @@ def _digest(args: list) -> list:
     """Each array argument's bytes hashed (``visit`` left out), other arguments as they are."""
     return [None if k == VISIT else hashlib.sha1(a.tobytes()).hexdigest() if isinstance(a, np.ndarray) else a
             for k, a in enumerate(args)]
-
-
-def _trial_with_carve(world, wrap) -> None:
-    """Run ``world``'s trial (seed 0) with ``_carve`` replaced by ``wrap(kernel)``, restored after (as
-    ``bench_search.py`` does the search kernel)."""
-    kernel = map_module._carve
-    map_module._carve = wrap(kernel)
-    try:
-        result = run_trial(world, seed=0)
-    finally:
-        map_module._carve = kernel
-    if result.reason == "error":
-        raise SystemExit(f"error: the trial on {world.name} failed: {result.error}")
 
 
 def capture(world, every: int | None) -> tuple[int, list[tuple[list, list, tuple]]]:
@@ -79,11 +65,11 @@ def capture(world, every: int | None) -> tuple[int, list[tuple[list, list, tuple
         return call
 
     if every is None:
-        _trial_with_carve(world, recording)
+        trial_with(world, map_module, "_carve", recording)
         step, n = max(1, -(-n // MAX_CALLS)), 0
     else:
         step = every
-    _trial_with_carve(world, recording)
+    trial_with(world, map_module, "_carve", recording)
     return n, calls
 
 

@@ -25,7 +25,7 @@ import statistics
 import time
 
 import numpy as np
-from _bench_worlds import HELP, bench_worlds
+from _bench_worlds import HELP, bench_worlds, trial_with
 
 import navstack.planner.search as search_module
 from navstack.trial import TrialConfig, run_trial
@@ -33,18 +33,6 @@ from navstack.world import World
 
 NODE_ARRAYS = 10
 """The kernel's last arguments: the node arrays it fills (positions, headings, ..., lengths)."""
-
-
-def _trial_with_kernel(world: World, wrap) -> None:
-    """Run ``world``'s trial (seed 0) with the search kernel replaced by ``wrap(kernel)``, restored after."""
-    kernel = search_module._search_kernel
-    search_module._search_kernel = wrap(kernel)
-    try:
-        result = run_trial(world, seed=0, config=TrialConfig())
-    finally:
-        search_module._search_kernel = kernel
-    if result.reason == "error":
-        raise RuntimeError(f"trial on {world.name} failed: {result.error}")
 
 
 def capture(world: World, every: int = 1) -> list[tuple[tuple, tuple, list[np.ndarray]]]:
@@ -64,7 +52,7 @@ def capture(world: World, every: int = 1) -> list[tuple[tuple, tuple, list[np.nd
             return out
         return call
 
-    _trial_with_kernel(world, recording)
+    trial_with(world, search_module, "_search_kernel", recording)
     return calls
 
 
@@ -84,7 +72,7 @@ def in_trial(world: World, repeats: int) -> float:
     totals = []
     for _ in range(repeats):
         spent[0] = 0.0
-        _trial_with_kernel(world, timed)
+        trial_with(world, search_module, "_search_kernel", timed)
         totals.append(spent[0])
     return statistics.median(totals)
 

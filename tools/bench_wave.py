@@ -22,10 +22,9 @@ import inspect
 import time
 
 import numpy as np
-from _bench_worlds import HELP, bench_worlds
+from _bench_worlds import HELP, bench_worlds, trial_with
 
 import navstack.planner.potential as potential
-from navstack.trial import run_trial
 from navstack.world import World
 
 Wave = tuple[np.ndarray, np.ndarray, float, np.ndarray, float]
@@ -34,20 +33,15 @@ Wave = tuple[np.ndarray, np.ndarray, float, np.ndarray, float]
 
 def capture(world: World) -> list[Wave]:
     """Every navigation function ``world``'s trial builds (seed 0), as the input of its wavefront."""
-    seed = potential._wave_seed
     got: list[Wave] = []
 
-    def recording(wave, goal, reach, origin, cell):
-        got.append((wave[0].copy(), goal.copy(), float(reach), origin.copy(), float(cell)))
-        return seed(wave, goal, reach, origin, cell)
+    def recording(seed):
+        def call(wave, goal, reach, origin, cell):
+            got.append((wave[0].copy(), goal.copy(), float(reach), origin.copy(), float(cell)))
+            return seed(wave, goal, reach, origin, cell)
+        return call
 
-    potential._wave_seed = recording
-    try:
-        result = run_trial(world, seed=0)
-    finally:
-        potential._wave_seed = seed
-    if result.reason == "error":
-        raise SystemExit(f"error: the trial on {world.name} failed: {result.error}")
+    trial_with(world, potential, "_wave_seed", recording)
     return got
 
 
