@@ -331,18 +331,9 @@ def distances_below(xs, n, r, out, occ, start, S, origin, bucket, dims):  # prag
     if near > 0:
         k0 = max(lo2 - m, 0)
         k1 = min(hi2 + m + 1, dims[2])
-        i0, i1 = max(lo0 - m, 0), min(hi0 + m + 1, dims[0])
-        j0, j1 = max(lo1 - m, 0), min(hi1 + m + 1, dims[1])
-        ci, cj = (lo0 + hi0) // 2, (lo1 + hi1) // 2
-        for u in range(2 * (i1 - i0) + 1):  # rows from the samples' middle outwards: a near point lowers the
-            i = ci + (u + 1) // 2 if u % 2 else ci - u // 2  # bests early, and more columns are passed over
-            if i < i0 or i >= i1:
-                continue
+        for i in range(max(lo0 - m, 0), min(hi0 + m + 1, dims[0])):
             xlo, xhi = _slab(i, origin, bucket, dims, 0)
-            for v in range(2 * (j1 - j0) + 1):
-                j = cj + (v + 1) // 2 if v % 2 else cj - v // 2
-                if j < j0 or j >= j1:
-                    continue
+            for j in range(max(lo1 - m, 0), min(hi1 + m + 1, dims[1])):
                 base = (i * dims[1] + j) * dims[2]  # the column's buckets k0 .. k1 - 1
                 a, b = start[base + k0], start[base + k1]
                 if a == b:
