@@ -259,27 +259,8 @@ def _reference_nav(smap: SensedMap, nav, goal, reach, rep: Repulsion = REP) -> n
     cost = np.where(seen, 0.0, np.where(d <= rep.unseen_radius, max(rep.w_unseen_surface, rep.w_unseen),
                                         rep.w_unseen))
     blocked = d <= max(rep.r_block - 0.5 * math.sqrt(3.0) * nav.cell, 0.0)
-    idx = np.indices(shape).reshape(3, -1).T
-    flat = np.arange(len(centres)).reshape(shape)
-    rows, cols, w = [], [], []
-    for di in (-1, 0, 1):
-        for dj in (-1, 0, 1):
-            for dk in (-1, 0, 1):
-                if (di, dj, dk) == (0, 0, 0):
-                    continue
-                j = idx + (di, dj, dk)
-                ok = np.all((j >= 0) & (j < shape), axis=1)
-                a = flat[tuple(idx[ok].T)]
-                b = flat[tuple(j[ok].T)]
-                good = ~blocked[a] & ~blocked[b]
-                a, b = a[good], b[good]
-                rows.append(a)
-                cols.append(b)
-                w.append(nav.cell * math.sqrt(di * di + dj * dj + dk * dk) * (1.0 + 0.5 * (cost[a] + cost[b])))
-    graph = coo_matrix((np.concatenate(w), (np.concatenate(rows), np.concatenate(cols))),
-                       shape=(len(centres), len(centres))).tocsr()
     seeds = np.flatnonzero((np.linalg.norm(centres - goal, axis=1) <= reach + 0.5 * nav.cell) & ~blocked)
-    return dijkstra(graph, indices=seeds, min_only=True).reshape(shape)
+    return _grid_dijkstra(np.where(blocked, -1.0, cost).reshape(shape), seeds, nav.cell)
 
 
 NAV_LO, NAV_HI = np.array([-0.1, -0.3, -0.2]), np.array([0.7, 0.45, 0.2])

@@ -226,7 +226,8 @@ def _wave_state(cost: NDArray[np.float64], cell: float) -> tuple:
     The tuple: (cost, values, next cell, previous cell, bucket per cell, [cells queued, current bucket],
     the 26 neighbours' step lengths [m], padded costs, the 26 neighbours' flat offsets, the buckets' first
     cells, [bucket width [m]]); values, links, buckets and padded costs are flat over the padded grid; a
-    cell's bucket is -1 before it is queued and -2 once settled.
+    cell's bucket is -1 before it is queued and -2 once settled.  Values, buckets and first cells are left
+    unset: :func:`_wave_seed` starts them.
     """
     nx, ny, nz = cost.shape
     padded = np.full((nx + 2, ny + 2, nz + 2), -1.0)
@@ -238,18 +239,18 @@ def _wave_state(cost: NDArray[np.float64], cell: float) -> tuple:
     width = 0.25 * cell
     dearest = float(steps.max()) * (1.0 + max(float(cost.max(initial=0.0)), 0.0))
     n_buckets = int(math.ceil(dearest / width)) + 4
-    links = np.empty(n_pad, dtype=np.int64)
-    return (cost, np.full(n_pad, np.inf), links, links.copy(), np.full(n_pad, -1, dtype=np.int64),
-            np.zeros(2, dtype=np.int64), steps, padded.reshape(n_pad), offsets.astype(np.int64),
-            np.full(n_buckets, -1, dtype=np.int64), np.array([width]))
+    ints = np.empty((3, n_pad), dtype=np.int64)  # links and buckets: set by the seed (_wave_seed)
+    return (cost, np.empty(n_pad), ints[0], ints[1], ints[2], np.zeros(2, dtype=np.int64), steps,
+            padded.reshape(n_pad), offsets.astype(np.int64), np.empty(n_buckets, dtype=np.int64), np.array([width]))
 
 
 def _done_state(values: NDArray[np.float64]) -> tuple:
     """The state of a finished wavefront over ``values`` (nothing left to settle)."""
     state = _wave_state(np.zeros(values.shape), 1.0)
     nx, ny, nz = values.shape
+    state[1][:] = np.inf
     state[1].reshape(nx + 2, ny + 2, nz + 2)[1:-1, 1:-1, 1:-1] = values
-    state[4][:] = -2
+    state[4][:] = -2  # every cell settled, none queued
     return state
 
 
@@ -260,10 +261,15 @@ def _padded_index(cost, i, j, k):  # pragma: no cover - jitted
 
 
 @numba.njit(cache=True, inline="always")
-def _enqueue(wave, c, value):  # pragma: no cover - jitted
-    """Put cell ``c`` first in the bucket of ``value`` [m]."""
+def _bucket_of(wave, value):  # pragma: no cover - jitted
+    """The ring's bucket of ``value`` [m]."""
+    return int(value / wave[10][0]) % wave[9].shape[0]
+
+
+@numba.njit(cache=True, inline="always")
+def _enqueue(wave, c, b):  # pragma: no cover - jitted
+    """Put cell ``c`` first in bucket ``b``."""
     nxt, prv, bucket, heads = wave[2], wave[3], wave[4], wave[9]
-    b = int(value / wave[10][0]) % heads.shape[0]
     h = heads[b]
     nxt[c] = h
     prv[c] = -1
@@ -309,7 +315,7 @@ def _wave_seed(wave, goal, reach, origin, cell):  # pragma: no cover - jitted
                 if (own or x * x + y * y + z * z <= (reach + 0.5 * cell) ** 2) and cost[i, j, k] >= 0.0:
                     idx = _padded_index(cost, i, j, k)
                     flat[idx] = 0.0
-                    _enqueue(wave, idx, 0.0)
+                    _enqueue(wave, idx, _bucket_of(wave, 0.0))
                     n += 1
     meta[0] = n
     meta[1] = 0
@@ -328,7 +334,7 @@ def _wave_settle(wave, target):  # pragma: no cover - jitted
     least over its neighbours of (their value + the step's cost), computed as one expression: the unique
     solution of the relaxation equations, whatever the order of ties or of a bucket's cells.  The padding's
     blocked cells stand for the grid's edge."""
-    flat, nxt, bucket, meta, steps = wave[1], wave[2], wave[4], wave[5], wave[6]
+    flat, bucket, meta, steps = wave[1], wave[4], wave[5], wave[6]
     cost, offsets, heads = wave[7], wave[8], wave[9]
     n_buckets = heads.shape[0]
     n = meta[0]
@@ -339,9 +345,7 @@ def _wave_settle(wave, target):  # pragma: no cover - jitted
             if cur == n_buckets:
                 cur = 0
         idx = heads[cur]
-        heads[cur] = nxt[idx]
-        if nxt[idx] >= 0:
-            wave[3][nxt[idx]] = -1
+        _unlink(wave, idx)
         bucket[idx] = -2
         n -= 1
         d = flat[idx]
@@ -355,12 +359,13 @@ def _wave_settle(wave, target):  # pragma: no cover - jitted
             if nd < flat[nb]:
                 flat[nb] = nd
                 b = bucket[nb]
+                to = _bucket_of(wave, nd)
                 if b == -1:
-                    _enqueue(wave, nb, nd)
+                    _enqueue(wave, nb, to)
                     n += 1
-                elif b >= 0 and int(nd / wave[10][0]) % n_buckets != b:  # queued: to its lower bucket
+                elif b >= 0 and to != b:  # queued: to its lower bucket
                     _unlink(wave, nb)
-                    _enqueue(wave, nb, nd)
+                    _enqueue(wave, nb, to)
     meta[0] = n
     meta[1] = cur
 
