@@ -3,6 +3,7 @@
 #
 #   tools/mutation.sh MODULE [OUT_DIR]      MODULE: estimate | trial | sweep | path | control | exact_distance
 #                                           | scene | mesh_inside | mesh_walls | world
+#                                           | far_clearance | lipschitz | mover_sweep | mesh_depth
 #
 # Works on a scratch copy of the working tree (tracked and untracked, not ignored, files), so the mutants
 # cosmic-ray writes to disk never touch your checkout; the numba cache is shared with the test suite's
