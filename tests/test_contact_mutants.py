@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pybullet as p
 import pytest
+from _probes import R_PROBE, counting, probe_at, probe_boxes, pybullet_distance, with_a_nearer_static_sphere, world_of
 from _worlds import ROBOT, TIP
 from pybullet_utils import bullet_client
 
@@ -18,9 +19,7 @@ from navstack.sim.lipschitz import interval_bound, sampled_minimum
 from navstack.sim.mover_sweep import SWEEP_STEP
 from navstack.sim.probe import build_scene
 from navstack.sim.scene import Scene
-from navstack.world import Goal, LinearMotion, OscillateMotion, RobotSpec, Sphere, World, world_from_dict
-
-R_PROBE = 0.03  # m: the test "robot", a sphere
+from navstack.world import LinearMotion, OscillateMotion, Sphere, world_from_dict
 
 
 @pytest.fixture
@@ -28,28 +27,6 @@ def client():
     c = bullet_client.BulletClient(connection_mode=p.DIRECT)
     yield c
     c.disconnect()
-
-
-def world_of(*obstacles) -> World:
-    return World(name="t", robot=RobotSpec(), obstacles=tuple(obstacles), goals=(Goal([0.0, 0.0, 3.0]),))
-
-
-def probe_at(c, centre, radius: float = R_PROBE) -> int:
-    shape = c.createCollisionShape(p.GEOM_SPHERE, radius=radius)
-    body = c.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=shape, basePosition=[float(x) for x in centre])
-    c.performCollisionDetection()
-    return body
-
-
-def probe_boxes(centre, radius: float = R_PROBE):
-    c = np.asarray(centre, dtype=np.float64)[None, :]
-    return c - radius, c + radius
-
-
-def pybullet_distance(c, a: int, b: int) -> float:
-    """PyBullet's own closest distance between two bodies (spheres: exact)."""
-    c.performCollisionDetection()
-    return min(pt[8] for pt in c.getClosestPoints(a, b, 1.0))
 
 
 def exact(g):
@@ -157,12 +134,6 @@ def test_a_mover_at_exactly_one_metre_per_second_grazing_between_two_steps_is_se
     assert swept <= 0.0 and swept == pytest.approx(deepest, abs=1e-5)  # to within the 1 mm sampling
 
 
-def _counting(scene, monkeypatch) -> list:
-    calls, original = [], scene._exact_distances
-    monkeypatch.setattr(scene, "_exact_distances", lambda *a: calls.append(a) or original(*a))
-    return calls
-
-
 @pytest.mark.parametrize("moved", [0.0, 0.001])
 def test_a_clear_mover_is_sampled_at_a_millimetre_of_the_relative_motion(client, monkeypatch, moved):
     """A sphere at 0.5 m/s, 5 mm clear of a 0.2 m link across its path (closed form, and PyBullet's distance at
@@ -181,7 +152,7 @@ def test_a_clear_mover_is_sampled_at_a_millimetre_of_the_relative_motion(client,
     caps = (a, b, np.array([R_PROBE]))
     previous = (a - [0.0, 0.0, moved], b - [0.0, 0.0, moved], caps[2]) if moved else None
     boxes = (a - R_PROBE, b + R_PROBE)
-    calls = _counting(scene, monkeypatch)
+    calls = counting(scene, monkeypatch)
     swept = scene.swept_clearance(probe, 0.0, dt, ends, boxes, caps, previous)
     assert gap - 1e-12 <= swept <= gap + 1e-5  # closed form: closest at the middle of the step, sampled 1 mm apart
     assert len(calls) == math.ceil((v + moved / dt) * dt / SWEEP_STEP) + 1
@@ -200,22 +171,9 @@ def test_a_mover_beyond_what_was_found_is_not_asked_while_the_robot_moves_a_mill
     after = (a1[None], b1[None], np.array([r_c]))
     before = (a1[None] - step, b1[None] - step, np.array([r_c]))
     boxes = (np.array([a1 - r_c]), np.array([b1 + r_c]))
-    calls = _counting(scene, monkeypatch)
+    calls = counting(scene, monkeypatch)
     assert scene.swept_clearance(probe, 0.0, dt, 0.01, boxes, after, before) == 0.01
     assert calls == []
-
-
-def _with_a_nearer_static_sphere(client, mover, t: float):
-    """A scene of ``mover`` and a static sphere 5 mm from the probe (at the origin) on the -x side; the probe,
-    and the clearance the look at ``t`` reads (the static sphere's: PyBullet's own distance)."""
-    static = Sphere(center=[-(R_PROBE + 0.02 + 0.005), 0.0, 0.0], radius=0.02)
-    scene = Scene.build(client, world_of(static, mover))
-    probe = probe_at(client, [0.0, 0.0, 0.0])
-    scene.update(t)
-    look = scene.clearance(probe)
-    assert look == pytest.approx(0.005, abs=1e-9)
-    assert look == pytest.approx(pybullet_distance(client, probe, scene.obstacle_body[0]), abs=1e-9)
-    return scene, probe, look
 
 
 def test_a_mover_flying_through_between_two_looks_is_asked_though_a_static_body_is_nearer(client):
@@ -224,7 +182,7 @@ def test_a_mover_flying_through_between_two_looks_is_asked_though_a_static_body_
     asked.  Closed form: the centres meet at t0 + dt / 2, -(R_PROBE + r)."""
     v, r, dt = 5.0, 0.01, 1 / 30
     mover = Sphere(center=[0.0, v * dt / 2, 0.0], radius=r, motion=LinearMotion(velocity=[0.0, -v, 0.0]))
-    scene, probe, look = _with_a_nearer_static_sphere(client, mover, dt)
+    scene, probe, look = with_a_nearer_static_sphere(client, mover, dt)
     for t in (0.0, dt):
         assert abs(mover.center[1] + mover.motion.displacement(t)[1]) - r - R_PROBE > look  # clear at both looks
     swept = scene.swept_clearance(probe, 0.0, dt, look, probe_boxes([0.0, 0.0, 0.0]))
@@ -242,7 +200,7 @@ def test_a_mover_vibrating_once_per_step_is_asked_though_far_at_both_looks(clien
     amp, r, depth, dt = 0.01, 0.01, 0.001, 1 / 30
     mover = Sphere(center=[0.0, side * (R_PROBE + r - depth + amp), 0.0], radius=r,
                    motion=OscillateMotion(axis=[0.0, -side, 0.0], amplitude=amp, period=dt, phase=-math.pi / 2))
-    scene, probe, look = _with_a_nearer_static_sphere(client, mover, dt)
+    scene, probe, look = with_a_nearer_static_sphere(client, mover, dt)
     ts = np.linspace(0.0, dt, 20001)
     gaps = [abs(mover.center[1] + mover.motion.displacement(t)[1]) - r - R_PROBE for t in ts]
     assert gaps[0] == pytest.approx(2 * amp - depth) and gaps[-1] == pytest.approx(2 * amp - depth)

@@ -10,13 +10,13 @@ import math
 import numpy as np
 import pybullet as p
 import pytest
+from _probes import R_PROBE, counting, probe_at, probe_boxes, with_a_nearer_static_sphere, world_of
 from pybullet_utils import bullet_client
 
 from navstack.sim.mover_sweep import SWEEP_STEP
 from navstack.sim.scene import BOX_SLACK, Scene
-from navstack.world import Goal, LinearMotion, OscillateMotion, RobotSpec, Sphere, World
+from navstack.world import LinearMotion, OscillateMotion, Sphere
 
-R_PROBE = 0.03  # m: the test "robot", a sphere (or a capsule of this radius)
 DT = 1 / 30  # s: one control step
 
 
@@ -25,47 +25,6 @@ def client():
     c = bullet_client.BulletClient(connection_mode=p.DIRECT)
     yield c
     c.disconnect()
-
-
-def world_of(*obstacles) -> World:
-    return World(name="t", robot=RobotSpec(), obstacles=tuple(obstacles), goals=(Goal([0.0, 0.0, 3.0]),))
-
-
-def probe_at(c, centre, radius: float = R_PROBE) -> int:
-    shape = c.createCollisionShape(p.GEOM_SPHERE, radius=radius)
-    body = c.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=shape, basePosition=[float(x) for x in centre])
-    c.performCollisionDetection()
-    return body
-
-
-def probe_boxes(centre, radius: float = R_PROBE):
-    c = np.asarray(centre, dtype=np.float64)[None, :]
-    return c - radius, c + radius
-
-
-def pybullet_distance(c, a: int, b: int) -> float:
-    """PyBullet's own closest distance between two bodies (spheres: exact)."""
-    c.performCollisionDetection()
-    return min(pt[8] for pt in c.getClosestPoints(a, b, 1.0))
-
-
-def _counting(scene, monkeypatch) -> list:
-    calls, original = [], scene._exact_distances
-    monkeypatch.setattr(scene, "_exact_distances", lambda *a: calls.append(a) or original(*a))
-    return calls
-
-
-def _with_a_nearer_static_sphere(client, mover, t: float, gap: float = 0.005):
-    """A scene of a static sphere ``gap`` m from the probe (at the origin) on the -x side and ``mover``; the
-    probe, and the clearance the look at ``t`` reads (the static sphere's: PyBullet's own distance)."""
-    static = Sphere(center=[-(R_PROBE + 0.02 + gap), 0.0, 0.0], radius=0.02)
-    scene = Scene.build(client, world_of(static, mover))
-    probe = probe_at(client, [0.0, 0.0, 0.0])
-    scene.update(t)
-    look = scene.clearance(probe)
-    assert look == pytest.approx(gap, abs=1e-9)
-    assert look == pytest.approx(pybullet_distance(client, probe, scene.obstacle_body[0]), abs=1e-9)
-    return scene, probe, look
 
 
 # Samples of an oscillation of period DT taken a whole number of periods apart all fall on one phase: n + 1 even
@@ -83,7 +42,7 @@ def test_a_vibrating_mover_is_boxed_over_its_own_step_whatever_the_step_and_the_
     t1 = t0 + DT
     mover = Sphere(center=[0.0, R_PROBE + r - depth + amp, 0.0], radius=r,
                    motion=OscillateMotion(axis=[0.0, -1.0, 0.0], amplitude=amp, period=DT, phase=-math.pi / 2))
-    scene, probe, look = _with_a_nearer_static_sphere(client, mover, t1)
+    scene, probe, look = with_a_nearer_static_sphere(client, mover, t1)
     ts = np.linspace(t0, t1, 20001)
     gaps = [abs(mover.center[1] + mover.motion.displacement(t)[1]) - r - R_PROBE for t in ts]
     assert gaps[0] == pytest.approx(2 * amp - depth, abs=1e-9) and gaps[-1] == pytest.approx(2 * amp - depth, abs=1e-9)
@@ -133,7 +92,7 @@ def test_a_link_moving_over_a_later_step_is_swept_from_its_place_then_to_its_pla
     after = (a1[None], b1[None], np.array([R_PROBE]))
     before = (a0[None], b0[None], np.array([R_PROBE]))
     boxes = (np.minimum(a1, b1)[None] - R_PROBE, np.maximum(a1, b1)[None] + R_PROBE)
-    calls = _counting(scene, monkeypatch)
+    calls = counting(scene, monkeypatch)
     swept = scene.swept_clearance(robot, t0, t1, ends, boxes, after, before)
     if g > 0.0:
         assert brute - 1e-9 <= swept <= brute + 1e-5  # sampled 1 mm of the relative motion apart
@@ -152,7 +111,7 @@ def test_a_mover_flying_through_is_asked_though_a_static_body_is_nearer_than_the
     v, r = 5.0, 0.01
     assert BOX_SLACK > 0.0005
     mover = Sphere(center=[0.0, v * DT / 2, 0.0], radius=r, motion=LinearMotion(velocity=[0.0, -v, 0.0]))
-    scene, probe, look = _with_a_nearer_static_sphere(client, mover, DT, gap=0.0005)
+    scene, probe, look = with_a_nearer_static_sphere(client, mover, DT, gap=0.0005)
     for t in (0.0, DT):
         assert abs(mover.center[1] + mover.motion.displacement(t)[1]) - r - R_PROBE > 0.04  # clear at both looks
     swept = scene.swept_clearance(probe, 0.0, DT, look, probe_boxes([0.0, 0.0, 0.0]))
@@ -189,6 +148,6 @@ def test_a_mover_that_does_not_move_over_the_step_costs_no_query(client, monkeyp
     previous = caps if held else (a - [0.0, 0.0, 0.001], b - [0.0, 0.0, 0.001], caps[2])
     assert _capsule_to_sphere(a[0], b[0], R_PROBE, centre, r) == pytest.approx(gap)
     assert _capsule_to_sphere(previous[0][0], previous[1][0], R_PROBE, centre, r) == pytest.approx(gap)
-    calls = _counting(scene, monkeypatch)
+    calls = counting(scene, monkeypatch)
     assert scene.swept_clearance(robot, t0, t1, gap, (a - R_PROBE, b + R_PROBE), caps, previous) == gap
     assert calls == []
