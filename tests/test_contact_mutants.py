@@ -12,6 +12,8 @@ import pytest
 from _probes import R_PROBE, counting, probe_at, probe_boxes, pybullet_distance, with_a_nearer_static_sphere, world_of
 from _worlds import ROBOT, TIP
 from pybullet_utils import bullet_client
+from test_far_clearance import closed_form
+from test_far_clearance import world as far_world
 
 import navstack.sim.far_clearance as far
 from navstack import jpl_serpentine
@@ -213,23 +215,6 @@ def test_a_mover_vibrating_once_per_step_is_asked_though_far_at_both_looks(clien
 # --- navstack.sim.far_clearance ---------------------------------------------------------------------------------
 
 
-def _robot_to_sphere(world, q, centre, radius: float) -> float:
-    """Closed form: the least distance (m) from the robot's capsules at ``q`` (segments between DH frame origins
-    1..21, the arm's radius on the first 8) to a sphere (independent of navstack's geometry code)."""
-
-    T0 = world.robot.base.transform()
-    O = jpl_serpentine().frames(q)[1:22, :3, 3] @ T0[:3, :3].T + T0[:3, 3]
-    radii = np.where(np.arange(20) < 8, world.robot.arm_radius, world.robot.serpentine_radius)
-    best = math.inf
-    for k in range(20):
-        a, ab = O[k], O[k + 1] - O[k]
-        if ab @ ab < 1e-18:
-            continue
-        t = np.clip((centre - a) @ ab / (ab @ ab), 0.0, 1.0)
-        best = min(best, float(np.linalg.norm(a + t * ab - centre)) - radii[k] - radius)
-    return best
-
-
 def test_the_replay_sweeps_a_fast_mover_between_the_recorded_steps_and_measures_a_single_step():
     """A sphere passing 0.6 m above the still robot at 4.5 m/s, closest midway between the second and third recorded
     steps (75 mm from there at each): the replay (a trial that never came within the horizon) finds the closest
@@ -259,8 +244,8 @@ def test_the_replay_sweeps_a_fast_mover_between_the_recorded_steps_and_measures_
         origins = np.array([O, O, O])
         times = np.arange(3) * dt
         ts = np.linspace(0.0, 2 * dt, 20001)
-        brute = min(_robot_to_sphere(w, q0, mover.center + mover.motion.displacement(t), rs) for t in ts)
-        looks = [_robot_to_sphere(w, q0, mover.center + mover.motion.displacement(t), rs) for t in times]
+        brute = min(closed_form(np.asarray([q0]), w, mover.center + mover.motion.displacement(t), rs) for t in ts)
+        looks = [closed_form(np.asarray([q0]), w, mover.center + mover.motion.displacement(t), rs) for t in times]
         assert min(looks) - brute > 4e-3  # the looks alone read 4.6 mm high
         assert brute > 0.5  # beyond the trial's clearance horizon: only the replay measures it
         replay = far.replay_min_clearance(scene, body, qs, origins, times, dt)
@@ -302,24 +287,19 @@ def test_the_skip_bound_is_the_documented_one_for_any_motion_of_the_frames():
         assert far._next_step(origins, times, j, here, best, speed, dt) == expected
 
 
-def _far_world(*obstacles):
-    data = {"format": "navstack-world/1", "name": "far", "robot": ROBOT, "obstacles": list(obstacles),
-            "goals": [{"position": (TIP + [0.6, 0.0, 0.3]).tolist()}], "time_limit": 3.0}
-    return world_from_dict(data)
-
-
 def test_the_replays_query_distance_doubles_from_one_metre_until_something_lies_within_it():
     """A sphere 2.5 m from the robot (closed form): the replay asks PyBullet within 1, 2 and then 4 m, and no
     farther (a query far beyond the nearest body returns a point for every triangle of a mesh within it, and one
     of 10 km crashed PyBullet), and reads the closed-form distance."""
-    base = _far_world()
+    base = world_from_dict(far_world())
     q0 = np.array(base.robot.q0, dtype=float)
     T0 = base.robot.base.transform()
     O = jpl_serpentine().frames(q0)[1:22, :3, 3] @ T0[:3, :3].T + T0[:3, 3]
     up = T0[:3, 2]
     k = int(np.argmax(O @ up))
-    w = _far_world({"type": "sphere", "center": (O[k] + (2.5 + 0.025 + 0.1) * up).tolist(), "radius": 0.1})
-    truth = _robot_to_sphere(w, q0, w.obstacles[0].center, 0.1)
+    w = world_from_dict(far_world({"type": "sphere", "center": (O[k] + (2.5 + 0.025 + 0.1) * up).tolist(),
+                                   "radius": 0.1}))
+    truth = closed_form(np.asarray([q0]), w, w.obstacles[0].center, 0.1)
     assert 2.0 < truth < 4.0
     client, body, scene = build_scene(w)
     try:
@@ -338,19 +318,19 @@ def test_the_replay_sweeps_the_movers_over_the_step_before_each_from_the_first()
     the closest approach in it (brute force over 20,001 instants, closed-form distances), not the 29 um more of
     the first look."""
     v, rs, dt, t_close = 4.5, 0.05, 1 / 30, 0.6e-3
-    base = _far_world()
+    base = world_from_dict(far_world())
     q0 = np.array(base.robot.q0, dtype=float)
     T0 = base.robot.base.transform()
     O = jpl_serpentine().frames(q0)[1:22, :3, 3] @ T0[:3, :3].T + T0[:3, 3]
     up, across = T0[:3, 2], T0[:3, 1]
     k = int(np.argmax(O @ up))
     start = O[k] + (0.05 + 0.025 + rs) * up - across * v * t_close
-    w = _far_world({"type": "sphere", "center": start.tolist(), "radius": rs,
-                    "motion": {"type": "linear", "velocity": (v * across).tolist()}})
+    w = world_from_dict(far_world({"type": "sphere", "center": start.tolist(), "radius": rs,
+                                   "motion": {"type": "linear", "velocity": (v * across).tolist()}}))
     mover = w.obstacles[0]
     ts = np.linspace(0.0, dt, 20001)
-    brute = min(_robot_to_sphere(w, q0, mover.center + mover.motion.displacement(t), rs) for t in ts)
-    first = _robot_to_sphere(w, q0, mover.center, rs)
+    brute = min(closed_form(np.asarray([q0]), w, mover.center + mover.motion.displacement(t), rs) for t in ts)
+    first = closed_form(np.asarray([q0]), w, mover.center, rs)
     assert first - brute > 2e-5
     client, body, scene = build_scene(w)
     try:
