@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from _worlds import TIP, world_data
+from test_trial_accounting import _PinController
 
 import navstack.trial
 from navstack.jpl import jpl_serpentine
@@ -145,21 +146,13 @@ def test_an_obstacle_beyond_the_clearance_horizon_is_measured_exactly_after_a_no
     assert r.metrics["min_clearance"] == pytest.approx(expected, abs=0.003)
 
 
-class _LatheController:
+class _LatheController(_PinController):
     """A controller that holds the start posture but drives the lathe bed (joint 1) through ``schedule(k)`` at
     its k-th call: the whole robot translates along the bed's axis, no link turning."""
 
     def __init__(self, q0, schedule):
-        self.theta_d = np.array(q0, dtype=np.float64)
-        self.thetadot_d = np.zeros_like(self.theta_d)
+        super().__init__(q0)
         self.schedule, self.calls = schedule, 0
-
-        class _Path:
-            @staticmethod
-            def distance_to_path(p):
-                return 0.0
-
-        self.path = _Path()
 
     def step(self, x_d, xdot_d):
         self.calls += 1
