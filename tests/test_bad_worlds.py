@@ -31,7 +31,7 @@ def _check_world(path: Path, capsys) -> tuple[int, str]:
     return code, out.out + out.err
 
 
-def test_the_folders_hold_the_files_their_readmes_list():
+def test_both_folders_of_broken_files_are_found():
     names = {p.name for p in BAD}
     assert len(BAD) >= 31 and {"truncated.json", "q0_nan.json", "inf_nested.json", "bom.json"} <= names
 

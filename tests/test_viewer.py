@@ -62,9 +62,10 @@ def _differ(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.abs(a.astype(int) - b.astype(int)).sum(axis=-1) > 30
 
 
-def _changed(page, before: np.ndarray, gone: str = "", timeout: float = 90.0) -> tuple[np.ndarray, np.ndarray]:
+def _changed(page, before: np.ndarray, gone: tuple[str, ...] = (),
+             timeout: float = 90.0) -> tuple[np.ndarray, np.ndarray]:
     """The screenshot once it has changed from ``before`` and settled with each hue class named in ``gone``
-    (names of :func:`_hue_classes`, comma separated) down to at most half its pixels in ``before``, and the
+    (names of :func:`_hue_classes`) down to at most half its pixels in ``before``, and the
     mask of the pixels that changed.
 
     Settled: two screenshots half a second apart agree.  A change of several objects reaches the browser one
@@ -76,16 +77,15 @@ def _changed(page, before: np.ndarray, gone: str = "", timeout: float = 90.0) ->
     structure is one object, hidden in one message, and most of its hue is the ground's, so it names none.  At the
     deadline the last screenshot is returned as it is, and the caller's assertions say what is missing."""
     deadline = time.monotonic() + timeout
-    names = [k for k in gone.split(",") if k]
-    had = {k: int(m.sum()) for k, m in _hue_classes(before).items() if k in names}
+    had = {k: int(m.sum()) for k, m in _hue_classes(before).items() if k in gone}
     now = _shot(page)
     while time.monotonic() < deadline:
         time.sleep(0.5)
         later = _shot(page)
         settled = _differ(later, now).sum() <= 20
         now = later
-        left = {k: int(m.sum()) for k, m in _hue_classes(now).items() if k in names}
-        if settled and _differ(now, before).sum() > 200 and all(2 * left[k] <= had[k] for k in names):
+        left = {k: int(m.sum()) for k, m in _hue_classes(now).items() if k in gone}
+        if settled and _differ(now, before).sum() > 200 and all(2 * left[k] <= had[k] for k in gone):
             break
     return now, _differ(now, before)
 
@@ -134,7 +134,7 @@ def test_robot_and_structure_are_drawn(viewer, page):
 
     for handle in viewer.links.values():  # hide the robot: the pixels that change are the robot's
         handle.visible = False
-    no_robot, robot = _changed(page, full, gone="orange,green,red")
+    no_robot, robot = _changed(page, full, gone=("orange", "green", "red"))
     cls = {k: (m & robot).sum() for k, m in _hue_classes(full).items()}
     print(f"robot pixels {robot.sum()}: {cls}")
     assert cls["orange"] > 1000 and cls["green"] > 300 and cls["red"] > 50  # arm, serpentine, links in contact

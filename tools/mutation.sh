@@ -1,9 +1,8 @@
 #!/usr/bin/env bash
 # Mutation testing with cosmic-ray, one navstack module at a time (configurations in mutation/*.toml).
 #
-#   tools/mutation.sh MODULE [OUT_DIR]      MODULE: estimate | trial | sweep | path | control | exact_distance
-#                                           | scene | mesh_inside | mesh_walls | world
-#                                           | far_clearance | lipschitz | mover_sweep | mesh_depth
+#   tools/mutation.sh MODULE [OUT_DIR]      MODULE: the name of a configuration mutation/MODULE.toml
+#                                           (ls mutation/: estimate, trial, scene, mover_sweep, ...)
 #
 # Works on a scratch copy of the working tree (tracked and untracked, not ignored, files), so the mutants
 # cosmic-ray writes to disk never touch your checkout; the numba cache is shared with the test suite's
