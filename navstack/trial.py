@@ -109,6 +109,24 @@ class TrialConfig:
                              f"TrialConfig.sensor.max_range ({self.sensor.max_range:g} m): no ray could count as far, "
                              "so no opening would ever be seen (lower it, or set OpeningConfig(enabled=False))")
 
+    def for_robot(self, serpentine_radius: float) -> TrialConfig:
+        """This configuration for a robot whose serpentine links are capsules of ``serpentine_radius`` [m] (the
+        world's ``robot.serpentine_radius``): the tip's radius wherever the planners and the sensor take it
+        (``Repulsion.body_radius``, ``PlannerConfig.body_radius``, ``SensorConfig.body_radius``) set to it, and
+        the lengths measured from the tip's centre that reach beyond its surface grown by the same amount
+        (``Repulsion.influence`` and ``unseen_radius``, ``SensorConfig.max_range``), so that clearances and
+        reach beyond the surface stay as configured.  ``self`` when its radii are that radius already (the
+        default robot's 0.025 m)."""
+        r = float(serpentine_radius)
+        rep, sensor, reactive = self.field_planner.repulsion, self.sensor, self.reactive_planner
+        if rep.body_radius == r and sensor.body_radius == r and reactive.body_radius == r:
+            return self
+        grow = r - rep.body_radius
+        rep = replace(rep, body_radius=r, influence=rep.influence + grow, unseen_radius=rep.unseen_radius + grow)
+        sensor = replace(sensor, body_radius=r, max_range=sensor.max_range + r - sensor.body_radius)
+        return replace(self, sensor=sensor, field_planner=replace(self.field_planner, repulsion=rep),
+                       reactive_planner=replace(reactive, body_radius=r))
+
 
 @dataclass
 class TrialResult:
@@ -456,6 +474,7 @@ class _Simulation:
         self.controller_name = controller
         self.planner_name = planner
         self.seed = seed
+        cfg = cfg.for_robot(world.robot.serpentine_radius)  # the planners' and the sensor's tip: the world's robot
         self.cfg = cfg
         self.chain = jpl_serpentine()
         self.client, self.body, self.scene = built if built is not None else build_scene(world, visuals)

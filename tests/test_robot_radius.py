@@ -1,0 +1,66 @@
+"""The world's ``robot.serpentine_radius`` is the tip's radius for the planners and the sensor
+(:meth:`navstack.trial.TrialConfig.for_robot`): a thicker or thinner robot than the default 0.025 m is planned
+and sensed as what it is, with the configured clearances beyond its surface."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+from _worlds import world_data
+
+from navstack.planner.field import FieldPlanner
+from navstack.planner.reactive import PotentialFieldPlanner
+from navstack.sim.rays import RaySensor
+from navstack.trial import TrialConfig, run_trial
+from navstack.world import world_from_dict
+
+
+@pytest.mark.parametrize("r", [0.01, 0.04, 0.5])  # the world format's least and largest radii, and one between
+def test_every_tip_radius_follows_the_robot_and_what_lies_beyond_the_surface_stays(r):
+    base = TrialConfig(scripted_speed=0.05)
+    fit = base.for_robot(r)
+    rep0, rep = base.field_planner.repulsion, fit.field_planner.repulsion
+    assert rep.body_radius == fit.sensor.body_radius == fit.reactive_planner.body_radius == r
+    assert rep.r_block - r == pytest.approx(rep0.r_block - rep0.body_radius, abs=1e-15)  # the margin
+    assert rep.influence - r == pytest.approx(rep0.influence - rep0.body_radius, abs=1e-15)
+    assert rep.unseen_radius - r == pytest.approx(rep0.unseen_radius - rep0.body_radius, abs=1e-15)
+    assert fit.sensor.max_range - r == pytest.approx(base.sensor.max_range - base.sensor.body_radius, abs=1e-15)
+    # nothing else changes
+    assert dataclasses.replace(fit, sensor=base.sensor, field_planner=base.field_planner,
+                               reactive_planner=base.reactive_planner) == base
+    assert dataclasses.replace(rep, body_radius=rep0.body_radius, influence=rep0.influence,
+                               unseen_radius=rep0.unseen_radius) == rep0
+    assert dataclasses.replace(fit.sensor, body_radius=base.sensor.body_radius,
+                               max_range=base.sensor.max_range) == base.sensor
+    assert fit.for_robot(r) is fit
+
+
+def test_the_default_robot_keeps_the_configuration_itself():
+    cfg = TrialConfig()
+    assert cfg.for_robot(0.025) is cfg
+
+
+@pytest.mark.parametrize("planner, cls", [("field", FieldPlanner), ("reactive", PotentialFieldPlanner)])
+@pytest.mark.parametrize("r", [0.015, 0.04])
+def test_a_trial_plans_and_senses_with_the_worlds_serpentine_radius(monkeypatch, planner, cls, r):
+    """The configurations the trial hands its planner and its sensor, for a world whose robot is thinner or
+    thicker than the default."""
+    seen = {}
+    for name, klass in (("planner", cls), ("sensor", RaySensor)):
+        init = klass.__init__
+
+        def spy(self, *args, _init=init, _name=name, **kwargs):
+            seen[_name] = args, kwargs
+            _init(self, *args, **kwargs)
+
+        monkeypatch.setattr(klass, "__init__", spy)
+    data = world_data(time_limit=0.1)
+    data["robot"] = dict(data["robot"], serpentine_radius=r)
+    run_trial(world_from_dict(data), planner=planner, seed=0)
+    args, kwargs = seen["planner"]
+    config = next(a for a in (*args, *kwargs.values()) if hasattr(a, "body_radius") or hasattr(a, "repulsion"))
+    assert (config.repulsion.body_radius if planner == "field" else config.body_radius) == r
+    args, kwargs = seen["sensor"]
+    sensor = next(a for a in (*args, *kwargs.values()) if hasattr(a, "max_range"))
+    assert sensor.body_radius == r
