@@ -150,7 +150,7 @@ def _run(args: argparse.Namespace) -> int:
     _show_planner_notes()
     # bad input raises before anything is simulated: WorldError, TrialInputError (an unwritable --out)
     world = _load(args, args.world)
-    _warn_blocked_goals("navstack run", world)
+    _warn_blocked_goals("navstack run", world, field=args.planner == "field")
     result = run_trial(world, controller=args.controller, planner=args.planner, seed=args.seed,
                        out_dir=args.out, render=args.render)
     out = Path(args.out)
@@ -191,12 +191,19 @@ def _demo(args: argparse.Namespace) -> int:
     return status
 
 
-def _warn_blocked_goals(prefix: str, world) -> None:
-    """A warning on stderr for each goal that cannot be reached without contact (:mod:`navstack.goal_check`)."""
-    from navstack.goal_check import blocked_goals
+def _warn_blocked_goals(prefix: str, world, field: bool = True) -> None:
+    """A warning on stderr for each goal that cannot be reached without contact, and (``field``: for the field
+    planner) for each that leaves the tip less room than the planner's least margin (:mod:`navstack.goal_check`)."""
+    from navstack.goal_check import blocked_goals, tight_goals
+    from navstack.planner.field import FieldPlannerConfig
 
     for blocked in blocked_goals(world):
         print(f"{prefix}: warning: {blocked.message(world)}", file=sys.stderr)
+    if field:
+        cfg = FieldPlannerConfig()
+        margin = cfg.repulsion.margin if cfg.tight_margin is None else min(cfg.tight_margin, cfg.repulsion.margin)
+        for tight in tight_goals(world, margin):
+            print(f"{prefix}: warning: {tight.message(world)}", file=sys.stderr)
 
 
 def _check_world(args: argparse.Namespace) -> int:

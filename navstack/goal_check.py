@@ -11,6 +11,11 @@ obstacle's nearest surface point, for a convex obstacle), and the trial can only
 honestly.  Only one obstacle at a time is considered (a goal shut in by several obstacles together is not
 detected), and moving obstacles are skipped: they may move off the goal.
 
+The same bound gives a softer warning (:func:`tight_goals`): a goal whose tolerance ball offers the tip less than
+a margin of clearance from an obstacle (``0 < d + tolerance - serpentine_radius < margin``) can be reached without
+contact, but not by the field planner, which keeps its ``tight_margin`` (5 mm) from every surface it senses
+(``worlds/hard11/near_wall_goal.json``: a goal 2 mm in front of a wall with a 27 mm tolerance, 4 mm of room).
+
 Exact for boxes, cylinders and spheres (:func:`navstack.sim.exact_distance.signed_distance`).  A mesh is a
 surface to PyBullet: the distance to its nearest triangle, negative inside a closed mesh (the winding-number
 test of :mod:`navstack.sim.mesh_inside`).
@@ -46,20 +51,56 @@ class BlockedGoal:
                 f"cannot reach it without contact, so no trial of this world can succeed")
 
 
+@dataclass(frozen=True)
+class TightGoal:
+    """Goal ``goal`` that the tip can reach without contact, but only within ``room`` (m, > 0) of obstacle
+    ``obstacle``, less than ``margin`` (m): the most clearance from it anywhere within the goal's tolerance."""
+
+    goal: int
+    obstacle: int
+    room: float
+    margin: float
+
+    def message(self, world: World) -> str:
+        """One line naming both by their JSON paths, for a warning."""
+        g = world.goals[self.goal]
+        return (f"goals[{self.goal}] at {np.round(g.position, 3).tolist()}: anywhere within its tolerance the "
+                f"tip keeps at most {self.room * 1e3:.4f} mm from obstacles[{self.obstacle}] (a "
+                f"{world.obstacles[self.obstacle].type}), less than the {self.margin * 1e3:g} mm the field "
+                f"planner keeps from what it senses, so the field planner is not expected to reach it")
+
+
 def blocked_goals(world: World) -> list[BlockedGoal]:
     """Every (goal, static obstacle) pair where the goal cannot be reached without contact (module docstring),
     in goal order, then obstacle order."""
+    return [BlockedGoal(k, j, d) for k, j, d in _near_pairs(world, 0.0)]
+
+
+def tight_goals(world: World, margin: float) -> list[TightGoal]:
+    """Every (goal, static obstacle) pair where the tip can reach the goal without contact but cannot keep
+    ``margin`` (m) from the obstacle anywhere within its tolerance: ``0 < d + tolerance - serpentine_radius <
+    margin`` (module docstring: the most clearance from one obstacle the goal's tolerance ball offers), in goal
+    order, then obstacle order."""
+    r = world.robot.serpentine_radius
+    rooms = [(k, j, d + world.goals[k].tolerance - r) for k, j, d in _near_pairs(world, margin)]
+    return [TightGoal(k, j, room, margin) for k, j, room in rooms if 0.0 < room < margin]
+
+
+def _near_pairs(world: World, slack: float) -> list[tuple[int, int, float]]:
+    """``(goal, obstacle, signed distance in m)`` of every goal and static obstacle where the tip, anywhere
+    within the goal's tolerance, keeps at most ``slack`` (m) from the obstacle: ``d + tolerance -
+    serpentine_radius <= slack``; in goal order, then obstacle order."""
     from navstack.sim.exact_distance import signed_distance
 
     points = np.array([g.position for g in world.goals], dtype=np.float64).reshape(-1, 3)
-    reach = np.array([g.tolerance for g in world.goals]) - world.robot.serpentine_radius
-    found: list[BlockedGoal] = []
+    reach = np.array([g.tolerance for g in world.goals]) - world.robot.serpentine_radius - slack
+    found: list[tuple[int, int, float]] = []
     for j, o in enumerate(world.obstacles):
         if getattr(o, "motion", None) is not None or len(points) == 0:
             continue
         d = (_mesh_signed_distance(o, points, -reach) if isinstance(o, Mesh) else signed_distance(o, points))
-        found += [BlockedGoal(int(k), j, float(d[k])) for k in np.flatnonzero(d + reach <= 0.0)]
-    return sorted(found, key=lambda b: (b.goal, b.obstacle))
+        found += [(int(k), j, float(d[k])) for k in np.flatnonzero(d + reach <= 0.0)]
+    return sorted(found)
 
 
 def _mesh_signed_distance(mesh: Mesh, points: NDArray[np.float64], within: NDArray[np.float64],

@@ -195,9 +195,54 @@ def test_check_world_and_run_warn_but_do_not_refuse(tmp_path: Path, capsys):
     out, err = capsys.readouterr()
     assert "navstack run: warning: goals[1]" in err
     assert json.loads((tmp_path / "out" / "result.json").read_text())["success"] is False
-    path.write_text(json.dumps(world_with(box_at(-0.006))))
+    path.write_text(json.dumps(world_with(box_at(-0.006))))  # 1 mm of room: reachable, but not keeping 5 mm
+    assert main(["check-world", str(path)]) == 0
+    err = capsys.readouterr().err
+    assert "cannot reach" not in err
+    assert "warning: goals[1] at" in err and "at most 1.0000 mm from obstacles[1] (a box)" in err
+    assert "the field planner is not expected to reach it" in err
+    path.write_text(json.dumps(dict(world_with(box_at(-0.006)), time_limit=0.2)))
+    assert main(["run", str(path), "--out", str(tmp_path / "out2"), "--planner", "scripted"]) == 0
+    assert "warning" not in capsys.readouterr().err  # the scripted planner keeps no margin
+    path.write_text(json.dumps(world_with(box_at(-0.0101))))  # 5.1 mm of room
     assert main(["check-world", str(path)]) == 0
     assert "warning" not in capsys.readouterr().err
+
+
+MARGIN = 0.005  # m: the field planner's least margin from sensed surfaces (FieldPlannerConfig.tight_margin)
+
+
+@pytest.mark.parametrize("depth, tight", [(TOL - R_S + 1e-6, False), (TOL - R_S - 1e-6, True),
+                                          (TOL - R_S - MARGIN + 1e-6, True), (TOL - R_S - MARGIN - 1e-6, False),
+                                          (-0.1, False)])
+def test_a_goal_is_tight_exactly_when_its_tolerance_ball_offers_less_room_than_the_margin(depth, tight):
+    """Tight when 0 < room < MARGIN, room = d + TOL - R_S (d = -depth): up to 10 mm outside the box; a blocked
+    goal (room <= 0) is not also tight."""
+    from navstack.goal_check import tight_goals
+
+    world = world_from_dict(world_with(box_at(depth)))
+    found = tight_goals(world, MARGIN)
+    assert [(t.goal, t.obstacle) for t in found] == ([(1, 1)] if tight else [])
+    if tight:
+        assert found[0].room == pytest.approx(-depth + TOL - R_S, abs=1e-12) and found[0].margin == MARGIN
+
+
+def test_the_room_is_the_most_clearance_a_tip_in_the_tolerance_ball_can_have():
+    """Brute force: tip points sampled in the goal's tolerance ball (and the ball's point straight away from the
+    box's face), each one's clearance its distance to the box's +x face (closed form: the face reaches 0.2 m
+    round the goal in y and z, the ball 0.02 m) less R_S; the largest is the room."""
+    from navstack.goal_check import tight_goals
+
+    depth = -0.008  # room 3 mm
+    world = world_from_dict(world_with(box_at(depth)))
+    (tight,) = tight_goals(world, MARGIN)
+    rng = np.random.default_rng(0)
+    u = rng.normal(size=(20000, 3))
+    pts = GOAL + TOL * u / np.linalg.norm(u, axis=1)[:, None] * rng.random((20000, 1)) ** (1 / 3)
+    pts = np.vstack([pts, GOAL + [TOL, 0.0, 0.0]])
+    clearance = pts[:, 0] - (GOAL[0] + depth) - R_S
+    assert clearance.max() == pytest.approx(tight.room, abs=1e-12)
+    assert tight.room == pytest.approx(0.003, abs=1e-12)
 
 
 @pytest.mark.parametrize("family", ["truss", "cluttered-truss", "pipe-rack", "sphere-field", "slot-rack",
