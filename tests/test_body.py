@@ -116,6 +116,9 @@ def test_servo_rejects_nan(client):
         servo.command(bad, np.zeros(20))
     with pytest.raises(ValueError, match="finite"):
         servo.command(ROBOT.q_default, np.full(20, np.inf))
+    for n in (19, 21):  # one rate short or one too many: refused, whichever way
+        with pytest.raises(ValueError, match="thetadot_d must be 20 finite joint rates"):
+            servo.command(ROBOT.q_default, np.zeros(n))
 
 
 @pytest.mark.parametrize(
@@ -125,6 +128,9 @@ def test_servo_rejects_nan(client):
         ({"position_gain": 1.5}, "position_gain"),
         ({"physics_hz": 250.0}, "whole multiple"),
         ({"arm_torque": float("nan")}, "arm_torque"),
+        ({"position_gain": 0.0}, "position_gain"),  # a motor that pulls nothing back
+        ({"velocity_gain": 0.0}, "velocity_gain"),
+        ({"physics_hz": 1e-12}, "whole multiple"),  # a ratio within 1e-9 of 0: no physics step per control step
     ],
 )
 def test_servo_config_validation(kwargs, field):

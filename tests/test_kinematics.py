@@ -161,3 +161,24 @@ def test_table_units_are_metres():
     assert ROBOT.d[3] == pytest.approx(0.546)
     assert ROBOT.a[20] == pytest.approx(0.20)  # the tool frame: a_20 = 20 cm
     assert ROBOT.n == 20 and ROBOT.prismatic[0] and not ROBOT.prismatic[1:].any()
+
+
+@pytest.mark.parametrize("frame", [-1, 22])
+def test_a_point_jacobian_of_a_frame_outside_the_chain_is_refused(frame):
+    """Frames 0..21 exist (21 the tip); -1 would otherwise index the tip from the end, without a word."""
+    q = ROBOT.q_default
+    with pytest.raises(ValueError, match=r"frame must be in 0\.\.21, got " + str(frame)):
+        ROBOT.point_jacobian(q, frame)
+    np.testing.assert_array_equal(ROBOT.point_jacobian(q, 0), np.zeros((3, 20)))  # the base frame: fixed
+    assert ROBOT.point_jacobian(q, 21).shape == (3, 20)
+
+
+def test_a_dh_table_with_fewer_rows_than_joints_is_refused():
+    """One joint more than rows: refused; as many joints as rows (no tool row) is a chain."""
+    rows = dict(alpha=[0.0, 0.0], a=[0.0, 0.1], d=[0.0, 0.0], theta=[0.0, 0.0], point_frames=[2])
+    with pytest.raises(ValueError, match="more joints than DH rows"):
+        navstack.kinematics.Chain(**rows, prismatic=[False] * 3, lower=[-1.0] * 3, upper=[1.0] * 3,
+                                  q_default=[0.0] * 3)
+    chain = navstack.kinematics.Chain(**rows, prismatic=[False] * 2, lower=[-1.0] * 2, upper=[1.0] * 2,
+                                      q_default=[0.0] * 2)
+    np.testing.assert_allclose(chain.frames([np.pi / 2, 0.0])[2, :3, 3], [0.0, 0.1, 0.0], atol=1e-15)

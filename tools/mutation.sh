@@ -12,7 +12,8 @@
 # confirm-command re-tests the survivors with more tests first); rerunning resumes an unfinished session.
 # Needs the test and mutation extras (pip install -e '.[test,mutation]');
 # PYTHON selects the interpreter (default .venv/bin/python); SAMPLE=N [SEED=S] tests a seeded random sample of
-# N mutants instead of all (for slow modules; the kill rate is then an estimate).
+# N mutants instead of all (for slow modules; the kill rate is then an estimate); EXCLUDE="S1 S2" with it leaves out
+# the mutants earlier sessions S1, S2 of the module tested (SAMPLE=100000 EXCLUDE=... runs all the rest).
 set -euo pipefail
 module=${1:?usage: tools/mutation.sh MODULE [OUT_DIR]}
 repo=$(cd "$(dirname "$0")/.." && pwd)
@@ -33,7 +34,9 @@ if [ ! -f "$session" ]; then
     "$bin/cosmic-ray" init "$cfg" "$session"
     "$bin/cr-filter-operators" "$session" "$cfg"
     "$bin/cr-filter-pragma" "$session"
-    if [ -n "${SAMPLE:-}" ]; then "$py" "$repo/tools/mutation_sample.py" "$session" "$SAMPLE" --seed "${SEED:-0}"; fi
+    # shellcheck disable=SC2086  # EXCLUDE: space-separated session files
+    if [ -n "${SAMPLE:-}" ]; then "$py" "$repo/tools/mutation_sample.py" "$session" "$SAMPLE" --seed "${SEED:-0}" \
+        ${EXCLUDE:+--exclude $EXCLUDE}; fi
     "$bin/cosmic-ray" baseline "$cfg"
 fi
 "$bin/cosmic-ray" exec "$cfg" "$session"
