@@ -13,8 +13,9 @@ detected), and moving obstacles are skipped: they may move off the goal.
 
 The same bound gives a softer warning (:func:`tight_goals`): a goal whose tolerance ball offers the tip less than
 a margin of clearance from an obstacle (``0 < d + tolerance - serpentine_radius < margin``) can be reached without
-contact, but not by the field planner, which keeps its ``tight_margin`` (5 mm) from every surface it senses
-(``worlds/hard11/near_wall_goal.json``: a goal 2 mm in front of a wall with a 27 mm tolerance, 4 mm of room).
+contact, but the field planner, which keeps its ``tight_margin`` (5 mm) from every surface it senses, is not
+expected to reach it (``worlds/hard11/near_wall_goal.json``: a goal 2 mm in front of a wall with a 27 mm
+tolerance, 4 mm of room: 0 of 7 trials).
 
 Exact for boxes, cylinders and spheres (:func:`navstack.sim.exact_distance.signed_distance`).  A mesh is a
 surface to PyBullet: the distance to its nearest triangle, negative inside a closed mesh (the winding-number
