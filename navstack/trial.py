@@ -52,7 +52,7 @@ import numpy as np
 from navstack.jpl import BACKBONE_FRAMES, jpl_serpentine
 from navstack.planner.field import FieldPlannerConfig
 from navstack.planner.reactive import PlannerConfig
-from navstack.self_contact import pair_frames, self_clearance, self_pairs
+from navstack.self_contact import FIRST_SERPENTINE_FRAME, pair_frames, self_clearance, self_pairs
 from navstack.sensing import SensorConfig
 from navstack.sim.servo import ServoConfig
 from navstack.validate import instance, is_seed, positive
@@ -421,6 +421,7 @@ def check_start(world, built: tuple[Any, Any, Any] | None = None) -> None:
         client.performCollisionDetection()  # as run() begins: link poses current for the distance queries
         hits = scene.touching(body.body_id)
         frames = body.link_frames_world() if any(isinstance(o, Mesh) for o in world.obstacles) else None
+        _check_self_contact_at_start(world, body)
     finally:
         if built is None:
             client.disconnect()
@@ -432,6 +433,33 @@ def check_start(world, built: tuple[Any, Any, Any] | None = None) -> None:
         others = "" if len(hits) == 1 else f" (so do obstacles {', '.join(f'[{j}]' for j, _ in hits[1:])})"
         raise WorldError(f"the robot at q0 {how} this {world.obstacles[i].type} at t = 0{others}; a trial must "
                          f"start clear of every obstacle", file=world.source, json_path=f"obstacles[{i}]")
+
+
+def _check_self_contact_at_start(world, body) -> None:
+    """Refuse a robot whose own capsules touch at ``q0`` (``WorldError``): every trial of it would end in
+    ``collision`` (:mod:`navstack.self_contact`).  Named by what makes it so: ``robot.serpentine_radius`` or
+    ``robot.arm_radius`` when the robot is clear of itself with that radius at its default, else ``robot.q0``
+    (a straight serpentine's joint points two links apart are 0.2 m apart: radius 0.1 m touches there)."""
+    from navstack import jpl
+
+    origins = (body.base_transform @ body.chain.frames(world.robot.q0))[1:, :3, 3]
+    a, b, r = body.capsules(origins)
+    pairs = self_pairs(body.link_radii)
+    gap, k = self_clearance(a, b, r, pairs)
+    if gap > 0.0:
+        return
+    serpentine = np.flatnonzero(body.link_radii > 0.0) + 1 >= FIRST_SERPENTINE_FRAME  # by the capsules' DH frames
+    robot, path = world.robot, "robot.q0"
+    for name, default, links in (("serpentine_radius", jpl.SERPENTINE_RADIUS, serpentine),
+                                 ("arm_radius", jpl.ARM_RADIUS, ~serpentine)):
+        if getattr(robot, name) != default and self_clearance(a, b, np.where(links, default, r), pairs)[0] > 0.0:
+            path = f"robot.{name}"
+            break
+    f, g = pair_frames(body.link_radii, pairs, k)
+    how = "touching" if gap > -5e-5 else f"overlapping {-gap * 1e3:.1f} mm"
+    raise WorldError(f"the robot touches itself at q0 (the capsules of DH frames {f} and {g} {how}, "
+                     f"serpentine_radius {robot.serpentine_radius:g} m, arm_radius {robot.arm_radius:g} "
+                     f"m); every trial would end in collision", file=world.source, json_path=path)
 
 
 def _inside_closed_meshes(world, origins: np.ndarray) -> list[tuple[int, float]]:

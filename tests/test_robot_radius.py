@@ -1,19 +1,23 @@
 """The world's ``robot.serpentine_radius`` is the tip's radius for the planners and the sensor
 (:meth:`navstack.trial.TrialConfig.for_robot`): a thicker or thinner robot than the default 0.025 m is planned
-and sensed as what it is, with the configured clearances beyond its surface."""
+and sensed as what it is, with the configured clearances beyond its surface.  And a robot whose radii (or q0)
+make it touch itself at the start is bad input (:func:`navstack.trial.check_start`)."""
 
 from __future__ import annotations
 
 import dataclasses
+import json
+import math
 
 import pytest
 from _worlds import world_data
 
+from navstack.cli import main
 from navstack.planner.field import FieldPlanner
 from navstack.planner.reactive import PotentialFieldPlanner
 from navstack.sim.rays import RaySensor
-from navstack.trial import TrialConfig, run_trial
-from navstack.world import world_from_dict
+from navstack.trial import TrialConfig, check_start, run_trial
+from navstack.world import WorldError, world_from_dict
 
 
 @pytest.mark.parametrize("r", [0.01, 0.04, 0.5])  # the world format's least and largest radii, and one between
@@ -64,3 +68,44 @@ def test_a_trial_plans_and_senses_with_the_worlds_serpentine_radius(monkeypatch,
     args, kwargs = seen["sensor"]
     sensor = next(a for a in (*args, *kwargs.values()) if hasattr(a, "max_range"))
     assert sensor.body_radius == r
+
+
+def _robot(serpentine_radius: float = 0.025, arm_radius: float = 0.06, q0=None) -> dict:
+    data = world_data(time_limit=0.1)
+    data["robot"] = dict(data["robot"], serpentine_radius=serpentine_radius, arm_radius=arm_radius)
+    if q0 is not None:
+        data["robot"]["q0"] = q0
+    return data
+
+
+@pytest.mark.parametrize("r", [0.099, 0.1, 0.3])
+def test_a_straight_serpentine_too_thick_for_itself_is_refused_by_its_radius(tmp_path, capsys, r):
+    """The straight serpentine at q0: two links with one between them have collinear axes 0.2 m apart end to
+    end, so their capsules' gap is 0.2 - 2 r (closed form): clear at 0.099 m, touching from 0.1 m.  Such a
+    robot ends every trial in ``collision`` (it touches itself); check-world and run refuse it as bad input,
+    naming the radius."""
+    path = tmp_path / "thick.json"
+    path.write_text(json.dumps(_robot(serpentine_radius=r)))
+    status = main(["check-world", str(path)])
+    err = capsys.readouterr().err
+    if 0.2 - 2 * r > 0.0:
+        assert status == 0 and "touches itself" not in err
+        return
+    assert status == 2
+    assert f"{path}: robot.serpentine_radius: the robot touches itself at q0" in err and "Traceback" not in err
+    assert main(["run", str(path), "--out", str(tmp_path / "out")]) == 2
+    assert "robot.serpentine_radius: the robot touches itself" in capsys.readouterr().err
+    with pytest.raises(WorldError, match="touches itself"):
+        run_trial(world_from_dict(_robot(serpentine_radius=r)))
+
+
+def test_an_arm_too_thick_for_the_serpentine_or_a_coiled_start_is_refused_by_what_makes_it():
+    """arm_radius 0.3 m: the arm's capsules reach the serpentine's at q0 (clear at the default 0.06 m); a q0
+    with every serpentine joint at 60 deg coils the serpentine back into the arm at the default radii."""
+    with pytest.raises(WorldError, match=r"robot\.arm_radius: the robot touches itself at q0"):
+        check_start(world_from_dict(_robot(arm_radius=0.3)))
+    q0 = list(world_from_dict(_robot()).robot.q0)
+    q0[8:20:2] = [math.radians(60.0)] * 6
+    with pytest.raises(WorldError, match=r"robot\.q0: the robot touches itself at q0"):
+        check_start(world_from_dict(_robot(q0=q0)))
+    check_start(world_from_dict(_robot(arm_radius=0.1)))  # clear: no error
