@@ -200,9 +200,7 @@ def _warn_blocked_goals(prefix: str, world, field: bool = True) -> None:
     for blocked in blocked_goals(world):
         print(f"{prefix}: warning: {blocked.message(world)}", file=sys.stderr)
     if field:
-        cfg = FieldPlannerConfig()
-        margin = cfg.repulsion.margin if cfg.tight_margin is None else min(cfg.tight_margin, cfg.repulsion.margin)
-        for tight in tight_goals(world, margin):
+        for tight in tight_goals(world, FieldPlannerConfig().least_margin):
             print(f"{prefix}: warning: {tight.message(world)}", file=sys.stderr)
 
 

@@ -30,13 +30,18 @@ FIRST_SERPENTINE_FRAME = 9
 """DH frame of the first serpentine joint (interfaces.md section 1): frames 9..20 carry the serpentine."""
 
 
+def capsule_frames(radii: NDArray[np.float64]) -> NDArray[np.int64]:
+    """The DH frame k of each shaped capsule (the frames k = 1..len(radii) with ``radii[k - 1] > 0``, in order, as
+    :meth:`~navstack.sim.body.RobotBody.capsules` returns them)."""
+    return (np.flatnonzero(np.asarray(radii, dtype=np.float64).reshape(-1) > 0.0) + 1).astype(np.int64)
+
+
 def self_pairs(radii: NDArray[np.float64],
                first_serpentine_frame: int = FIRST_SERPENTINE_FRAME) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Index pairs ``(I, J)`` into the shaped capsules (the capsules of the frames k = 1..len(radii) with
     ``radii[k - 1] > 0``, in order, as :meth:`~navstack.sim.body.RobotBody.capsules` returns them) to check
     for self-contact: ``I < J``, not consecutive, at least one of the two a serpentine link."""
-    radii = np.asarray(radii, dtype=np.float64).reshape(-1)
-    frames = np.flatnonzero(radii > 0.0) + 1
+    frames = capsule_frames(radii)
     serp = frames >= first_serpentine_frame
     i, j = np.triu_indices(len(frames), k=2)
     keep = serp[i] | serp[j]
@@ -46,7 +51,7 @@ def self_pairs(radii: NDArray[np.float64],
 def pair_frames(radii: NDArray[np.float64], pairs: tuple[NDArray[np.int64], NDArray[np.int64]],
                 k: int) -> tuple[int, int]:
     """The DH frames whose capsules make pair ``k`` of ``pairs`` (:func:`self_pairs` of the same ``radii``)."""
-    frames = np.flatnonzero(np.asarray(radii, dtype=np.float64).reshape(-1) > 0.0) + 1
+    frames = capsule_frames(radii)
     return int(frames[pairs[0][k]]), int(frames[pairs[1][k]])
 
 

@@ -52,7 +52,7 @@ import numpy as np
 from navstack.jpl import BACKBONE_FRAMES, jpl_serpentine
 from navstack.planner.field import FieldPlannerConfig
 from navstack.planner.reactive import PlannerConfig
-from navstack.self_contact import FIRST_SERPENTINE_FRAME, pair_frames, self_clearance, self_pairs
+from navstack.self_contact import FIRST_SERPENTINE_FRAME, capsule_frames, pair_frames, self_clearance, self_pairs
 from navstack.sensing import SensorConfig
 from navstack.sim.servo import ServoConfig
 from navstack.validate import instance, is_seed, positive
@@ -421,7 +421,6 @@ def check_start(world, built: tuple[Any, Any, Any] | None = None) -> None:
         client.performCollisionDetection()  # as run() begins: link poses current for the distance queries
         hits = scene.touching(body.body_id)
         frames = body.link_frames_world() if any(isinstance(o, Mesh) for o in world.obstacles) else None
-        _check_self_contact_at_start(world, body)
     finally:
         if built is None:
             client.disconnect()
@@ -433,6 +432,7 @@ def check_start(world, built: tuple[Any, Any, Any] | None = None) -> None:
         others = "" if len(hits) == 1 else f" (so do obstacles {', '.join(f'[{j}]' for j, _ in hits[1:])})"
         raise WorldError(f"the robot at q0 {how} this {world.obstacles[i].type} at t = 0{others}; a trial must "
                          f"start clear of every obstacle", file=world.source, json_path=f"obstacles[{i}]")
+    _check_self_contact_at_start(world, body)
 
 
 def _check_self_contact_at_start(world, body) -> None:
@@ -448,7 +448,7 @@ def _check_self_contact_at_start(world, body) -> None:
     gap, k = self_clearance(a, b, r, pairs)
     if gap > 0.0:
         return
-    serpentine = np.flatnonzero(body.link_radii > 0.0) + 1 >= FIRST_SERPENTINE_FRAME  # by the capsules' DH frames
+    serpentine = capsule_frames(body.link_radii) >= FIRST_SERPENTINE_FRAME
     robot, path = world.robot, "robot.q0"
     for name, default, links in (("serpentine_radius", jpl.SERPENTINE_RADIUS, serpentine),
                                  ("arm_radius", jpl.ARM_RADIUS, ~serpentine)):

@@ -258,3 +258,13 @@ def test_no_generated_world_has_a_goal_that_cannot_be_reached_without_contact(fa
     for seed in range(3):
         world = generate_world(family, seed=seed, difficulty=1.0)
         assert blocked_goals(world) == [], [b.message(world) for b in blocked_goals(world)]
+
+
+def test_the_warnings_margin_is_the_field_planners_least():
+    """MARGIN above is the default planner's least margin; without a tight margin, or with one above the
+    repulsion's, it is the repulsion's."""
+    from navstack.planner.field import FieldPlannerConfig
+
+    assert FieldPlannerConfig().least_margin == MARGIN
+    assert FieldPlannerConfig(tight_margin=None).least_margin == FieldPlannerConfig().repulsion.margin == 0.01
+    assert FieldPlannerConfig(tight_margin=0.02).least_margin == 0.01

@@ -123,6 +123,13 @@ class FieldPlannerConfig:
     deep_escape_after_retreats: int = 1
     tight_margin: float | None = 0.005
 
+    @property
+    def least_margin(self) -> float:
+        """The least clearance [m] a plan keeps from sensed surfaces: ``tight_margin`` when it is below
+        ``Repulsion.margin`` (the search that lets a passage narrower than the margin through), else that margin."""
+        margin = self.repulsion.margin
+        return margin if self.tight_margin is None else min(self.tight_margin, margin)
+
     def __post_init__(self) -> None:
         for name, cls in (("map", MapConfig), ("repulsion", Repulsion), ("search", SearchConfig),
                           ("steering", SteeringConfig), ("escape", EscapeConfig), ("opening", OpeningConfig),
