@@ -229,3 +229,7 @@ register_family("duct-elbow", "inside a square duct, round an elbow; goal: the d
                 "navstack.generate.duct_elbow:family_duct_elbow", seed_id=11,
                 difficulty="half width 0.1 -> 0.075 m, elbow 45-70 -> 75-100 deg of radius 0.42-0.5 -> 0.3-0.38 m, "
                            "mouth off the heading up to 10 -> 25 deg")
+register_family("sized-slot-rack", "the slot rack for a serpentine of radius 12-45 mm drawn per world (the default is "
+                "25 mm), its slots sized to the body; goals: entry and destination only",
+                "navstack.generate.sized:family_sized_slot_rack", seed_id=12,
+                difficulty="as slot-rack (slots 2 (r - 0.025) m wider: the same room each side of the body)")

@@ -34,7 +34,7 @@ from navstack.world import Cylinder, load_world, save_world
 
 TIP, HEADING = robot_tip_start((0.0, 0.0, 0.3), PAPER_BASE_RPY)
 WORLDS = Path(__file__).resolve().parents[1] / "worlds"
-SPARSE = ("slot-rack", "sparse-truss", "bend-clutter", "fin-bank", "rod-forest", "duct-elbow")
+SPARSE = ("slot-rack", "sparse-truss", "bend-clutter", "fin-bank", "rod-forest", "duct-elbow", "sized-slot-rack")
 NEW = (*SPARSE, "dead-end")
 CASES = [(f, s, d) for f in NEW for s, d in ((0, 0.0), (1, 0.3), (2, 0.6), (3, 1.0), (4, 1.0))]
 
@@ -380,7 +380,8 @@ def test_family_examples_in_worlds_are_regenerated_identically(tmp_path):
 @pytest.mark.parametrize(("family", "seed", "difficulty"), [("slot-rack", 0, 0.5), ("slot-rack", 1, 1.0),
                                                           ("sparse-truss", 1, 1.0), ("bend-clutter", 0, 1.0),
                                                           ("fin-bank", 0, 1.0), ("rod-forest", 0, 1.0),
-                                                          ("duct-elbow", 1, 1.0)])
+                                                          ("duct-elbow", 1, 1.0), ("sized-slot-rack", 6, 1.0),
+                                                          ("sized-slot-rack", 3, 0.5)])
 def test_scripted_collides_on_the_goals_but_follows_the_reference_through(family, seed, difficulty):
     w = generate_world(family, seed, difficulty)
     blind = run_trial(w, planner="scripted")

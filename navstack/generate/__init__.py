@@ -25,7 +25,8 @@ The package, one concept per module:
   - goals that do not mark the way (:mod:`~navstack.generate.sparse`: 12 mm for every link, the spline
     through the goals alone must cut into an obstacle): :mod:`~navstack.generate.slot_rack`
     (``slot-rack``), :mod:`~navstack.generate.sparse_truss` (``sparse-truss``),
-    :mod:`~navstack.generate.bend_clutter` (``bend-clutter``);
+    :mod:`~navstack.generate.bend_clutter` (``bend-clutter``), and :mod:`~navstack.generate.sized`
+    (``sized-slot-rack``: the slot rack for a serpentine radius of 12-45 mm drawn per world);
   - :mod:`~navstack.generate.dead_end` (``dead-end``): the goal at the back of a pocket, ``retract``;
   - :mod:`~navstack.generate.sliding_door` (``sliding-door``): a window shut by a door that slides away later
     (a moving obstacle; the checks take obstacles where their motions end, :func:`~navstack.generate.checks.
@@ -42,7 +43,8 @@ clearance of the body slithering along the spline through the goals alone (negat
 planner collides).
 
 Robot of every family: the paper's demo placement, base (0, 0, 0.3) m, rpy (0, -pi/2, pi), tip at
-(1.8085, 0.1079, 1.1668) m heading +x, lathe bed along +x.
+(1.8085, 0.1079, 1.1668) m heading +x, lathe bed along +x; radii 0.025 m (serpentine) and 0.06 m (arm), but
+for a family whose candidate sets its own ``serpentine_radius`` (the checks then use that radius).
 
 Checks (:func:`check_world`; a candidate that fails any of them is discarded and the next sub-seed
 ``attempt`` is drawn, up to :data:`MAX_ATTEMPTS`), thresholds in :class:`CheckConfig`:

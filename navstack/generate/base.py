@@ -35,6 +35,7 @@ __all__ = [
     "BASE_POSITION",
     "GENERATOR_VERSION",
     "HEADING",
+    "SERPENTINE_RADIUS",
     "TIP",
     "TOLERANCE",
     "Candidate",
@@ -66,12 +67,18 @@ TIP, HEADING = robot_tip_start(BASE_POSITION, PAPER_BASE_RPY)
 """Start tip position [m] and unit heading of the demo placement (tip at (1.8085, 0.1079, 1.1668), +x)."""
 
 
-def robot_dict() -> dict[str, Any]:
-    """The ``robot`` object of every generated world (the demo placement, default posture and radii)."""
+SERPENTINE_RADIUS = 0.025
+"""The serpentine's capsule radius [m] of every family but those that draw their own
+(``Candidate.serpentine_radius``)."""
+
+
+def robot_dict(serpentine_radius: float | None = None) -> dict[str, Any]:
+    """The ``robot`` object of every generated world (the demo placement, default posture and radii; the
+    serpentine's radius ``serpentine_radius`` [m] when given)."""
     return {
         "base": {"position": rounded(BASE_POSITION), "rpy": rounded(PAPER_BASE_RPY)},
         "q0": rounded(Q_DEFAULT),
-        "serpentine_radius": 0.025,
+        "serpentine_radius": SERPENTINE_RADIUS if serpentine_radius is None else float(serpentine_radius),
         "arm_radius": 0.06,
     }
 
@@ -99,6 +106,8 @@ class Candidate:
             spline through the goals alone must penetrate an obstacle by at least this much
             (``extra.generator.goal_path_clearance <= -blocked_depth``), else the candidate is discarded.
         retract: the family's default for the world's ``retract`` key.
+        serpentine_radius: the robot's serpentine radius [m] this candidate was drawn for (written into the
+            world's ``robot`` and used by the checks), ``None``: :data:`SERPENTINE_RADIUS`.
     """
 
     obstacles: list[dict[str, Any]]
@@ -111,6 +120,7 @@ class Candidate:
     checks: dict[str, float] = field(default_factory=dict)
     blocked_depth: float | None = None
     retract: bool = False
+    serpentine_radius: float | None = None
 
 
 def build_world(name: str, family: str | None, cand: Candidate, extra: dict[str, Any],
@@ -122,7 +132,7 @@ def build_world(name: str, family: str | None, cand: Candidate, extra: dict[str,
         "description": cand.description,
         **({"family": family} if family is not None else {}),
         **({"retract": True} if retract else {}),
-        "robot": robot_dict(),
+        "robot": robot_dict(cand.serpentine_radius),
         "obstacles": cand.obstacles,
         "goals": [{"position": rounded(g), "tolerance": TOLERANCE} for g in cand.goals],
         "time_limit": time_limit,

@@ -159,13 +159,15 @@ def generate_world(family: str, seed: int, difficulty: float = 0.5, *, retract: 
     for attempt in range(MAX_ATTEMPTS):
         rng = np.random.default_rng([GENERATOR_VERSION, REGISTERED[family].seed_id, seed, attempt])
         cand = _candidate(family, rng, difficulty, cfg, robot)
+        own = cand.serpentine_radius
+        drawn_for = robot if own is None else replace(robot, serpentine_radius=own)  # the checks use its radius
         back = cand.retract if retract is None else bool(retract)
         name = world_name(family, seed, difficulty)
         if back != cand.retract:
             name += "-retract" if back else "-noretract"
         generator = {"family": family, "seed": seed, "difficulty": difficulty, "version": GENERATOR_VERSION,
                      "attempt": attempt}
-        world, _, why = finish(cand, name, family, cfg, robot, generator, back)
+        world, _, why = finish(cand, name, family, cfg, drawn_for, generator, back)
         if world is not None:
             return world
         last = why

@@ -180,6 +180,7 @@ FAMILY_EXAMPLES = (
     ("fin_bank.json", "fin-bank", 0, 1.0),
     ("rod_forest.json", "rod-forest", 0, 1.0),
     ("duct_elbow.json", "duct-elbow", 0, 0.5),
+    ("sized_slot_rack.json", "sized-slot-rack", 6, 1.0),
 )
 """(file, family, seed, difficulty) of the example worlds of the newer families in ``worlds/``."""
 

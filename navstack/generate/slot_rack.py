@@ -27,6 +27,11 @@ Difficulty d (0..1): a third row with probability 0.15 + 0.6 d; row spacing draw
 width 0.15 - 0.03 d m (minus up to 5 mm, at least 0.12 m: the tip capsule of radius 0.025 m plus the
 0.015 m path margin on both sides leaves a band of at least 0.04 m); a second sphere with probability
 0.2 + 0.6 d; sphere surface 0.02 + (0.05 (1 - d) + 0.01) x U(0, 1) m from the tip's path.
+
+A robot of another serpentine radius r (``sized-slot-rack``, :mod:`~navstack.generate.sized`) gets slots
+2 (r - 0.025) m wider, so the same room on each side of its body, and slot centres as near the line as
+keep the straight line blocked for its radius.  For the default robot every number is the same as before
+(the shift is exactly 0.0).
 Units: metres, radians.
 """
 
@@ -37,7 +42,7 @@ from typing import Any
 
 import numpy as np
 
-from navstack.generate.base import HEADING, TIP, Candidate, make_guard, place
+from navstack.generate.base import HEADING, SERPENTINE_RADIUS, TIP, Candidate, make_guard, place
 from navstack.generate.checks import CheckConfig, RobotStart, path_samples
 from navstack.generate.geometry import FloatArray, cylinder_dict, obstacle_distance
 from navstack.generate.sparse import (
@@ -157,15 +162,16 @@ class Layout:
     roll: float
 
 
-def _draw_layout(rng: np.random.Generator, difficulty: float) -> Layout:
+def _draw_layout(rng: np.random.Generator, difficulty: float, grow: float = 0.0) -> Layout:
+    """The rows; slots ``2 grow`` [m] wider than for the default body (``grow``: the body's radius less 0.025 m)."""
     n_rows = 3 if rng.random() < 0.15 + 0.6 * difficulty else 2
     gaps = rng.uniform(max(0.33, 0.5 - 0.2 * difficulty), 0.65 - 0.2 * difficulty, size=n_rows - 1)
     if n_rows == 3:
         gaps = np.minimum(gaps, 0.35)
     kind = "pipes" if rng.random() < 0.65 else "plates"
     depths = rng.uniform(0.02, 0.05, size=n_rows) if kind == "pipes" else rng.uniform(0.006, 0.015, size=n_rows)
-    width = max(0.12, 0.15 - 0.03 * difficulty - rng.uniform(0.0, 0.005))
-    widths = np.clip(width + rng.uniform(-0.003, 0.003, size=n_rows), 0.12, 0.15)
+    width = max(0.12, 0.15 - 0.03 * difficulty - rng.uniform(0.0, 0.005)) + 2.0 * grow
+    widths = np.clip(width + rng.uniform(-0.003, 0.003, size=n_rows), 0.12 + 2.0 * grow, 0.15 + 2.0 * grow)
     first = rng.uniform(0.15, 0.2)
     xs = first + np.concatenate([[0.0], np.cumsum(gaps)])
     near = np.minimum(np.append(gaps, np.inf), np.insert(gaps, 0, np.inf))  # nearest neighbour row
@@ -175,10 +181,11 @@ def _draw_layout(rng: np.random.Generator, difficulty: float) -> Layout:
                    roll=float(rng.uniform(0.0, np.pi)))
 
 
-def path_offsets(rng: np.random.Generator, L: Layout, band: FloatArray) -> FloatArray | None:
+def path_offsets(rng: np.random.Generator, L: Layout, band: FloatArray, grow: float = 0.0) -> FloatArray | None:
     """|p_k| [m]: the path's offset while crossing row k, drawn row by row within what the slot (the line
-    blocked, the path inside its band) and the turn radius (entry, between rows, to the final goal) allow."""
-    lb = 0.05 * L.widths + 0.017  # below this no slot both blocks the line and holds the path
+    blocked, the path inside its band) and the turn radius (entry, between rows, to the final goal) allow.
+    ``grow``: the body's radius less 0.025 m."""
+    lb = 0.05 * L.widths + 0.017 - 0.1 * grow  # below this no slot both blocks the line and holds the path
     ub = L.widths / 2 + 0.015 + 0.9 * band
     caps = [((L.xs[k + 1] - L.halves[k + 1]) - (L.xs[k] + L.halves[k])) ** 2 / (4 * DESIGN_RADIUS)
             for k in range(len(L.xs) - 1)]
@@ -244,12 +251,14 @@ def way_through(rng: np.random.Generator, L: Layout, robot: RobotStart, cfg: Che
     a, n = cross_axes(u, L.roll)
     entry = TIP + L.standoff * u
     band = L.widths / 2 - robot.serpentine_radius - cfg.path_margin  # |path - slot centre| allowed
+    grow = robot.serpentine_radius - SERPENTINE_RADIUS  # exactly 0.0 for the default body
     side = 1.0 if rng.random() < 0.5 else -1.0
     signs = side * (-1.0) ** np.arange(len(L.xs))
-    p = path_offsets(rng, L, band)
+    p = path_offsets(rng, L, band, grow)
     if p is None:  # no room for these rows: a candidate the checks reject (the next attempt redraws)
         p = 0.05 * L.widths + 0.017
-    lo = np.maximum(L.widths / 2 - 0.02, p - 0.9 * band)
+    # the slot's near edge at most the body's radius less 5 mm beyond the line: going straight collides
+    lo = np.maximum(L.widths / 2 - (0.02 + grow), p - 0.9 * band)
     hi = np.maximum(lo, np.minimum(p + 0.9 * band, L.widths / 2 + 0.015))
     slots = signs * rng.uniform(lo, hi)
     e_lo, e_hi = entry_range(float(p[0]), float(L.xs[0] - L.halves[0]), L.standoff) or (ENTRY_MAX, ENTRY_MAX)
@@ -314,7 +323,7 @@ def family_slot_rack(rng: np.random.Generator, difficulty: float, cfg: CheckConf
                      robot: RobotStart) -> Candidate:
     """A slot rack (module docstring) ahead of the demo robot ``robot``."""
     cfg = sparse_config(cfg)
-    L = _draw_layout(rng, difficulty)
+    L = _draw_layout(rng, difficulty, robot.serpentine_radius - SERPENTINE_RADIUS)
     W = way_through(rng, L, robot, cfg)
     slots, offsets, e, via = W.slots, W.offsets, W.e, W.via
     rows, windows = _rows(rng, L, slots, W.entry, HEADING, W.a, W.n)
