@@ -149,10 +149,11 @@ def _run(args: argparse.Namespace) -> int:
 
     _show_planner_notes()
     # bad input raises before anything is simulated: WorldError, TrialInputError (an unwritable --out)
+    config = _settings(args.settings)
     world = _load(args, args.world)
     _warn_blocked_goals("navstack run", world, field=args.planner == "field")
     result = run_trial(world, controller=args.controller, planner=args.planner, seed=args.seed,
-                       out_dir=args.out, render=args.render)
+                       out_dir=args.out, render=args.render, config=config)
     out = Path(args.out)
     print(_summary(result))
     print(f"wrote {out / 'result.json'}, trajectory.npz, world.json"
@@ -163,6 +164,31 @@ def _run(args: argparse.Namespace) -> int:
         return EXIT_INTERNAL
     if args.animate:
         _animate_and_report(args.out)
+    return EXIT_OK
+
+
+def _settings(path: str | None):
+    """The :class:`~navstack.trial.TrialConfig` of a ``--settings`` file (``None`` without one); bad input ->
+    :class:`BadInput`."""
+    if path is None:
+        return None
+    from navstack.settings import SettingsError, load_settings
+
+    try:
+        return load_settings(path)
+    except SettingsError as exc:
+        raise BadInput(str(exc)) from None
+
+
+def _show_settings(args: argparse.Namespace) -> int:
+    """``navstack settings [FILE]``: every setting (the defaults, or what FILE makes of them) as JSON."""
+    import json
+
+    from navstack.settings import settings_to_dict
+    from navstack.trial import TrialConfig
+
+    config = _settings(args.file) or TrialConfig()
+    print(json.dumps(settings_to_dict(config), indent=2))
     return EXIT_OK
 
 
@@ -402,6 +428,12 @@ def _add_trial_commands(sub: Any) -> None:
     d.add_argument("--no-animate", action="store_true", help="skip the animation of each trial (animation.mp4)")
     d.set_defaults(func=_demo)
 
+    st = sub.add_parser("settings", help="print every trial setting with its default, or what a --settings file "
+                                         "makes of them, as JSON")
+    st.add_argument("file", nargs="?", type=nonempty_path,
+                    help="a settings file to check and apply (a JSON object naming only the settings to change)")
+    st.set_defaults(func=_show_settings)
+
     r = sub.add_parser("run", help="run one closed-loop trial headless")
     r.add_argument("world", help="a navstack-world/1 JSON file")
     r.add_argument("--out", required=True, type=nonempty_path,
@@ -410,6 +442,8 @@ def _add_trial_commands(sub: Any) -> None:
     r.add_argument("--planner", choices=PLANNERS, default="field")
     r.add_argument("--seed", type=_seed, default=0, help="seed of the sensor noise (default 0)")
     r.add_argument("--render", action="store_true", help="also write scene.png (TinyRenderer)")
+    r.add_argument("--settings", metavar="FILE", type=nonempty_path,
+                   help="a JSON file of settings to change (see: navstack settings); the run writes settings.json")
     _add_world_options(r)
     r.add_argument("--animate", action="store_true", help="also write animation.mp4 (see: navstack animate)")
     r.set_defaults(func=_run)

@@ -35,7 +35,9 @@ WORLD_FILE = "world.json"
 TRAJECTORY_FILE = "trajectory.npz"
 RESULT_FILE = "result.json"
 MESH_DIR = "meshes"
-RUN_FILES = (RESULT_FILE, TRAJECTORY_FILE, WORLD_FILE, "scene.png", "animation.mp4", "animation.gif")
+SETTINGS_FILE = "settings.json"
+"""Every setting of a trial run with settings other than the defaults (``run_trial(config=...)``, ``--settings``)."""
+RUN_FILES = (RESULT_FILE, TRAJECTORY_FILE, WORLD_FILE, SETTINGS_FILE, "scene.png", "animation.mp4", "animation.gif")
 """What a run writes into its folder; a new run into the same folder removes them first (a run folder
 holds one run: an old ``scene.png`` beside a new ``result.json`` would show another trial)."""
 MAX_NAME_BYTES = 255
@@ -100,6 +102,16 @@ def write_run_world(world: World, out_dir: str | os.PathLike[str]) -> Path:
     path = out / WORLD_FILE
     tmp = path.with_name(path.name + ".tmp")
     save_world(world, tmp)
+    os.replace(tmp, path)
+    return path
+
+
+def write_run_settings(config: Any, out_dir: str | os.PathLike[str]) -> Path:
+    """Write every setting of ``config`` (a :class:`navstack.trial.TrialConfig`) as ``out_dir/settings.json``
+    (the form ``navstack run --settings`` reads back); returns its path."""
+    path = Path(out_dir) / SETTINGS_FILE
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(dataclasses.asdict(config), indent=2) + "\n", encoding="utf-8")
     os.replace(tmp, path)
     return path
 

@@ -69,6 +69,7 @@ import argparse
 import concurrent.futures as cf
 import contextlib
 import dataclasses
+import functools
 import hashlib
 import json
 import math
@@ -139,6 +140,8 @@ class TrialSpec:
     world read from a file. ``difficulty`` is dimensionless (the generator's scale), ``None`` if unknown.
     ``retract``: the world asks the robot to back out after the last goal (interfaces.md section 2a); left
     out of :meth:`to_dict` when false, so trial lists from before the flag existed still match.
+    ``settings``: the SHA-256 of the trial's settings (``--settings``, :func:`navstack.settings.settings_digest`)
+    when they are not the defaults; left out of :meth:`to_dict` when ``None``, likewise.
     """
 
     trial_id: str
@@ -152,6 +155,7 @@ class TrialSpec:
     difficulty: float | None = None
     world_seed: int | None = None
     retract: bool = False
+    settings: str | None = None
 
     @property
     def generated(self) -> bool:
@@ -163,6 +167,8 @@ class TrialSpec:
         data = dataclasses.asdict(self)
         if not self.retract:
             del data["retract"]
+        if self.settings is None:
+            del data["settings"]
         return data
 
     @classmethod
@@ -188,6 +194,8 @@ class SweepConfig:
     noise seeds). ``difficulties`` are passed to the generator (ignored for ``worlds_dir``; there the
     difficulty is read from the world's ``extra.difficulty`` when it is a number in [-1e9, 1e9]).
     ``retract`` (generated worlds only): generate worlds the robot must back out of.
+    ``settings``: the SHA-256 of the trials' settings when they are not the defaults (``--settings``), stored in
+    every trial of the list (a rerun with other settings is another sweep, refused on the same folder).
     """
 
     families: tuple[str, ...] = ()
@@ -198,6 +206,7 @@ class SweepConfig:
     controllers: tuple[str, ...] = ("slither",)
     planners: tuple[str, ...] = ("field",)
     retract: bool = False
+    settings: str | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "families", tuple(self.families))
@@ -216,6 +225,8 @@ class SweepConfig:
         if self.retract and not self.families:
             raise SweepError("sweep config: retract applies to generated worlds (--generate); a world file "
                              "says \"retract\": true itself")
+        if self.settings is not None and not (isinstance(self.settings, str) and len(self.settings) == 64):
+            raise SweepError(f"sweep config: settings must be a SHA-256 hex digest or None, got {self.settings!r}")
         for name in ("families", "difficulties", "controllers", "planners"):
             values = getattr(self, name)
             if name != "families" and not values:
@@ -319,7 +330,8 @@ def build_specs(config: SweepConfig) -> list[TrialSpec]:
                                 trial_id=f"{world_id}__{controller}__{planner}", world_id=world_id,
                                 world_file=f"{WORLDS_DIR}/{world_id}.json", controller=controller,
                                 planner=planner, seed=trial_seed, index=index, family=fam,
-                                difficulty=diff, world_seed=world_seed, retract=config.retract))
+                                difficulty=diff, world_seed=world_seed, retract=config.retract,
+                                settings=config.settings))
     else:
         try:
             folder = Path(config.worlds_dir).expanduser().resolve()  # type: ignore[arg-type]
@@ -348,7 +360,8 @@ def build_specs(config: SweepConfig) -> list[TrialSpec]:
                         specs.append(TrialSpec(
                             trial_id=f"{world_id}__{rep:03d}__{controller}__{planner}", world_id=world_id,
                             world_file=str(path), controller=controller, planner=planner, seed=trial_seed,
-                            index=rep, family=fam, difficulty=diff, world_seed=None, retract=retract))
+                            index=rep, family=fam, difficulty=diff, world_seed=None, retract=retract,
+                            settings=config.settings))
     _check_unique(specs)
     return specs
 
@@ -565,7 +578,10 @@ def _finish_record(spec: TrialSpec, result: dict[str, Any], prov: dict[str, Any]
     record: dict[str, Any] = {"trial_id": spec.trial_id}
     record.update({k: v for k, v in result.items() if k not in ("trial_id", "provenance")})
     record.update(family=spec.family, difficulty=spec.difficulty, index=spec.index, world_id=spec.world_id,
-                  world_file=spec.world_file, world_seed=spec.world_seed, provenance=prov)
+                  world_file=spec.world_file, world_seed=spec.world_seed)
+    if spec.settings is not None:
+        record["settings"] = spec.settings
+    record["provenance"] = prov
     return record
 
 
@@ -1123,6 +1139,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="controller to run (repeatable; default slither)")
     parser.add_argument("--planner", action="append", choices=tuple(PLANNERS), default=None,
                         help="planner to run (repeatable; default field)")
+    parser.add_argument("--settings", metavar="FILE", type=nonempty_path, default=None,
+                        help="a JSON file of trial settings to change (see: navstack settings); every trial uses "
+                             "them, sweep.json keeps them, each results line names their SHA-256")
     parser.add_argument("--retract", action="store_true",
                         help="generate worlds the robot must back out of after the last goal (--generate only)")
     parser.add_argument("--jobs", type=int, default=None,
@@ -1146,8 +1165,26 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="sweep directory (created or resumed)")
 
 
-def config_from_args(args: argparse.Namespace) -> SweepConfig:
-    """The :class:`SweepConfig` described by parsed ``navstack trials`` arguments."""
+def trial_settings(path: str | None) -> Any:
+    """The :class:`navstack.trial.TrialConfig` of a ``--settings`` file, ``None`` without one or when it leaves
+    every setting at its default; :class:`SweepError` naming the file and the setting when it is bad."""
+    if path is None:
+        return None
+    from navstack.settings import SettingsError, load_settings
+    from navstack.trial import TrialConfig
+
+    try:
+        config = load_settings(path)
+    except SettingsError as exc:
+        raise SweepError(f"--settings: {exc}") from None
+    return None if config == TrialConfig() else config
+
+
+def config_from_args(args: argparse.Namespace, settings: Any = None) -> SweepConfig:
+    """The :class:`SweepConfig` described by parsed ``navstack trials`` arguments (``settings``: the trials'
+    :class:`navstack.trial.TrialConfig` when not the defaults, :func:`trial_settings`)."""
+    from navstack.settings import settings_digest
+
     if args.worlds is not None and args.difficulty is not None:
         raise SweepError("--difficulty only applies to --generate (world files carry their own)")
     if args.worlds is not None and args.retract:
@@ -1158,7 +1195,7 @@ def config_from_args(args: argparse.Namespace) -> SweepConfig:
         families=tuple(args.generate or ()), count=args.count, seed=args.seed,
         difficulties=tuple(args.difficulty) if args.difficulty else (0.5,), worlds_dir=args.worlds,
         controllers=tuple(args.controller or ("slither",)), planners=tuple(args.planner or ("field",)),
-        retract=bool(args.retract))
+        retract=bool(args.retract), settings=None if settings is None else settings_digest(settings))
 
 
 def run_from_args(args: argparse.Namespace, argv: Sequence[str] | None = None) -> int:
@@ -1169,12 +1206,21 @@ def run_from_args(args: argparse.Namespace, argv: Sequence[str] | None = None) -
     argv = list(sys.argv[1:] if argv is None else argv)
     command = shlex.join(["navstack", *argv])
     try:
-        config = config_from_args(args)
+        settings = trial_settings(args.settings)
+        config = config_from_args(args, settings)
         specs = build_specs(config)
-        summary = run_sweep(specs, args.out, jobs=args.jobs,
+        record: SweepConfig | dict[str, Any] = config
+        custom: dict[str, Any] = {}  # the default runner unless settings are given
+        if settings is not None:  # every trial runs with them; sweep.json keeps every setting for the record
+            from navstack.settings import settings_to_dict
+            from navstack.trial import run_trial
+
+            record = {**config.to_dict(), "trial_settings": settings_to_dict(settings)}
+            custom["runner"] = functools.partial(run_trial, config=settings)
+        summary = run_sweep(specs, args.out, jobs=args.jobs, **custom,
                             trial_timeout=args.trial_timeout if args.trial_timeout > 0 else None,
                             progress=not args.no_progress, keep_trajectories=args.keep_trajectories,
-                            config=config, command=command, backend=args.backend,
+                            config=record, command=command, backend=args.backend,
                             ray_address=args.ray_address, animate_failures=args.animate_failures)
     except SweepError as exc:
         print(f"navstack trials: error: {exc}", file=sys.stderr)

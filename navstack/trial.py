@@ -287,10 +287,12 @@ def run_trial(
                 raise TrialInputError(str(exc)) from None
         sim = _Simulation(world, controller, planner, int(seed), cfg, visuals=render, built=built)
         if out is not None:  # the trial is ready: only now replace what an earlier run left in the folder
-            from navstack.rundir import clear_run_files, write_run_world
+            from navstack.rundir import clear_run_files, write_run_settings, write_run_world
 
             clear_run_files(out)
             write_run_world(world, out)  # world.json (meshes copied to out/meshes/): animate and view read it
+            if cfg != TrialConfig():  # settings.json: what the run used, when it is not the defaults
+                write_run_settings(cfg, out)
     except BaseException:
         built[0].disconnect()
         raise

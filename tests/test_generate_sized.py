@@ -34,8 +34,14 @@ def test_radii_are_drawn_per_world_within_the_range():
     assert all(RADII[0] <= r <= RADII[1] for r in radii)
     assert len(set(radii)) >= 8
     assert min(radii) < 0.02 and max(radii) > 0.035  # thin and thick bodies both drawn
-    # the radius does not depend on the difficulty: one seed, one body
-    assert {generate_world("sized-slot-rack", 3, d).robot.serpentine_radius for d in (0.0, 1.0)} == {radii[3]}
+    # the radius is drawn first from the sub-seed: one seed and sub-seed, one body, at every difficulty
+    for seed in range(4):
+        worlds = [generate_world("sized-slot-rack", seed, d) for d in (0.0, 0.5, 1.0)]
+        by_attempt = {}
+        for w in worlds:
+            by_attempt.setdefault(w.extra["generator"]["attempt"], set()).add(w.robot.serpentine_radius)
+        assert all(len(r) == 1 for r in by_attempt.values()), by_attempt
+        assert worlds[1].robot.serpentine_radius == radii[seed]
 
 
 @pytest.mark.parametrize(("seed", "difficulty"), CASES)

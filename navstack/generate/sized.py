@@ -6,8 +6,9 @@ for that body: slots 2 (r - 0.025) m wider than the slot rack's, so the same roo
 and every check (the reference path's margin, the slithering body's 12 mm, the goals' path cutting into a
 row, the start in PyBullet) uses r.  So the family asks whether the planners, the sensor and the
 contact checks take the body's size from the world rather than from the default, on worlds that hand the
-planner nothing but the entry and the destination.  Difficulty: as ``slot-rack``'s; r does not depend on it.
-Units: metres.
+planner nothing but the entry and the destination.  Difficulty: as ``slot-rack``'s.  r is drawn first from the
+sub-seed, so one seed gives the same r at every difficulty unless a later sub-seed is the one that passes the
+checks (then r is drawn anew with the layout).  Units: metres.
 """
 
 from __future__ import annotations
