@@ -802,11 +802,11 @@ def _mesh_path_str(path: Path, relative_to: Path | None) -> str:
 
 @lru_cache(maxsize=64)
 def _load_triangles_cached(path: str, mtime_ns: int, size: int) -> tuple[FloatArray, NDArray[np.int32]]:
-    import trimesh  # imported lazily: slow to import, and only mesh worlds need it
+    from navstack.mesh_file import load_triangles  # trimesh, with what it misreads put right
 
-    m = trimesh.load(path, force="mesh")
-    v = np.ascontiguousarray(np.asarray(m.vertices, dtype=np.float64))
-    f = np.ascontiguousarray(np.asarray(m.faces, dtype=np.int32))
+    vertices, faces = load_triangles(path)
+    v = np.ascontiguousarray(vertices)
+    f = np.ascontiguousarray(faces)
     v.setflags(write=False)
     f.setflags(write=False)
     return v, f

@@ -69,6 +69,8 @@ def test_overrides_change_only_what_they_name():
     ({"sensor": {"cone_rings": 2.5}}, "sensor.cone_rings: expected an integer, got the number 2.5"),
     ({"sensor": {"include_axis": 1}}, "sensor.include_axis: expected true or false, got the number 1"),
     ({"slither_mode": "fast"}, "slither_mode must be 'projected' or 'full'"),
+    ({"slither_mode": 5}, "slither_mode: expected a string, got the number 5"),
+    ({"scripted_speed": {"x": 1}}, "scripted_speed: expected a finite number, got an object"),
     ({"field_planner": {"map": {"shadow_depths": [0.01, "x"]}}}, "field_planner.map.shadow_depths: expected a list"),
     ([1, 2], "expected a JSON object of settings, got an array"),
 ])
@@ -87,6 +89,19 @@ def test_bad_files_are_refused_with_their_name(tmp_path):
             load_settings(f)
     with pytest.raises(SettingsError, match="cannot read"):
         load_settings(tmp_path / "missing.json")
+
+
+def test_a_settings_file_of_more_than_a_mebibyte_is_refused_before_parsing(tmp_path):
+    from navstack.settings import MAX_SETTINGS_BYTES
+
+    assert MAX_SETTINGS_BYTES == 1 << 20
+    body = '{"scripted_speed": 0.1}'
+    f = tmp_path / "s.json"
+    f.write_text(body + " " * (MAX_SETTINGS_BYTES - len(body)))  # exactly the limit: read
+    assert load_settings(f).scripted_speed == 0.1
+    f.write_text(body + " " * (MAX_SETTINGS_BYTES + 1 - len(body)))  # one byte more: refused
+    with pytest.raises(SettingsError, match="larger than 1048576 bytes"):
+        load_settings(f)
 
 
 def test_settings_command_prints_what_run_reads_back(tmp_path, capsys):
