@@ -40,6 +40,19 @@ def test_every_tip_radius_follows_the_robot_and_what_lies_beyond_the_surface_sta
     assert fit.for_robot(r) is fit
 
 
+@pytest.mark.parametrize(("r", "split"), [(0.0249, 2), (0.013, 2), (0.0125, 2), (0.012, 3), (0.01, 3),
+                                          (0.025, 1), (0.04, 1), (0.5, 1)])
+def test_a_thinner_tip_gets_a_finer_seen_free_grid(r, split):
+    # the seen-free cells (the navigation function's grid) at most 0.8 of the tip's radius, as 0.02 m is of the
+    # default 0.025 m, and a whole fraction of the configured cell (worlds/hard12/thin_slot: 4/13 -> 12/13)
+    base = TrialConfig()
+    fit = base.for_robot(r)
+    m0, m = base.field_planner.map, fit.field_planner.map
+    assert m.free_cell == m0.free_cell / split
+    assert m.free_cell <= 0.8 * r + 1e-12 or split == 1
+    assert dataclasses.replace(m, free_cell=m0.free_cell) == m0  # nothing else of the map changes
+
+
 def test_the_default_robot_keeps_the_configuration_itself():
     cfg = TrialConfig()
     assert cfg.for_robot(0.025) is cfg
