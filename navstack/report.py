@@ -180,6 +180,9 @@ class Summary:
     retracted_by_method: dict[tuple[str, str], tuple[int, int]] = field(default_factory=dict)
     retracted_by_cell: dict[tuple[str, float | None, tuple[str, str]], tuple[int, int]] = field(default_factory=dict)
     provenance: tuple[Provenance, ...] = ()
+    settings: tuple[str, ...] = ()
+    """The distinct trial settings of the lines: each line's ``settings`` (the SHA-256 of ``trials --settings``),
+    ``""`` for lines run with the defaults."""
     animations: tuple[tuple[str, str, str], ...] = ()
     """(trial_id, reason, animation file relative to the sweep folder) of failed trials kept with
     ``--animate-failures``."""
@@ -397,6 +400,7 @@ def summarize(records: Iterable[Mapping[str, Any]], *, checked: bool = False) ->
         retracted_by_method=_tally_retracted(records, method),
         retracted_by_cell=_tally_retracted(records, lambda r: (family(r), r.get("difficulty"), method(r))),
         provenance=_provenances(records),
+        settings=tuple(sorted({str(r["settings"]) if isinstance(r.get("settings"), str) else "" for r in records})),
     )
 
 
@@ -657,8 +661,12 @@ def _provenance_section(s: Summary) -> list[str]:
         cells = ["(not recorded)", "-", "-", "-", "-"] if p.key is None else \
             ["-" if v is None else f"`{v}`" if i == 1 else str(v) for i, v in enumerate(p.key)]
         rows.append([*cells, ", ".join(p.backends) or "-", ", ".join(p.hosts) or "-", p.trials])
-    return lines + _table(["navstack", "commit", "python", "pybullet", "numpy", "backends", "hosts", "trials"],
-                          rows)
+    lines += _table(["navstack", "commit", "python", "pybullet", "numpy", "backends", "hosts", "trials"], rows)
+    named = [f"`{d[:12]}`" for d in s.settings if d]
+    if not named:
+        return lines + ["", "Trial settings: the defaults (`navstack settings` prints them)."]
+    return lines + ["", "Trial settings: " + ("the defaults and " if "" in s.settings else "") + ", ".join(named)
+                    + " (the SHA-256 of `trials --settings`; every setting is in sweep.json, `config.trial_settings`)."]
 
 
 # --------------------------------------------------------------------------------------------------------

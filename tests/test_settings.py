@@ -168,4 +168,10 @@ def test_a_sweep_runs_with_its_settings_and_is_not_resumed_with_others(tmp_path,
     s.write_text('{"scripted_speed": "x"}')
     assert main([*base, "--out", str(tmp_path / "bad"), "--settings", str(s)]) == 2
     assert "--settings: " in capsys.readouterr().err and not (tmp_path / "bad").exists()
+    # the reports say which settings ran
+    assert main(["report", str(tmp_path / "plain")]) == 0 and main(["report", str(tmp_path / "fast")]) == 0
+    plain_md = (tmp_path / "plain" / "report.md").read_text()
+    fast_md = (tmp_path / "fast" / "report.md").read_text()
+    assert "Trial settings: the defaults (" in plain_md
+    assert f"Trial settings: `{fast['settings'][:12]}` (the SHA-256" in fast_md
 
