@@ -132,7 +132,8 @@ class TrialConfig:
             # finely resolved; the cells stay nested in the configured grid (a whole fraction of it).  Measured
             # (session 49): worlds/hard12/thin_slot 4/13 -> 12/13 reached, 2-4x the wall time for thin robots
             split = math.ceil(round(rep.body_radius / r, 9))
-            fp = replace(fp, map=replace(fp.map, free_cell=fp.map.free_cell / split))
+            fp = replace(fp, map=replace(fp.map, free_cell=fp.map.free_cell / split,
+                                         free_cell_fallback=fp.map.free_cell))  # coarser where a world is wide
         rep = replace(rep, body_radius=r, influence=rep.influence + grow, unseen_radius=rep.unseen_radius + grow)
         sensor = replace(sensor, body_radius=r, max_range=sensor.max_range + r - sensor.body_radius)
         return replace(self, sensor=sensor, field_planner=replace(fp, repulsion=rep),
@@ -296,7 +297,13 @@ def run_trial(
                 check_run_folder(world, out)
             except ValueError as exc:
                 raise TrialInputError(str(exc)) from None
-        sim = _Simulation(world, controller, planner, int(seed), cfg, visuals=render, built=built)
+        from navstack.planner.map import MapTooLarge
+
+        try:
+            sim = _Simulation(world, controller, planner, int(seed), cfg, visuals=render, built=built)
+        except MapTooLarge as exc:  # settings whose cells cannot cover this world's goals: bad input, not a crash
+            raise TrialInputError(f"the field planner's map cannot cover this world: {exc}; give larger cells "
+                                  "(settings: field_planner.map.free_cell)") from None
         if out is not None:  # the trial is ready: only now replace what an earlier run left in the folder
             from navstack.rundir import clear_run_files, write_run_settings, write_run_world
 

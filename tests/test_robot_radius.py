@@ -9,6 +9,7 @@ import dataclasses
 import json
 import math
 
+import numpy as np
 import pytest
 from _worlds import world_data
 
@@ -50,7 +51,43 @@ def test_a_thinner_tip_gets_a_finer_seen_free_grid(r, split):
     m0, m = base.field_planner.map, fit.field_planner.map
     assert m.free_cell == m0.free_cell / split
     assert m.free_cell <= 0.8 * r + 1e-12 or split == 1
-    assert dataclasses.replace(m, free_cell=m0.free_cell) == m0  # nothing else of the map changes
+    assert m.free_cell_fallback == (None if split == 1 else m0.free_cell)
+    assert dataclasses.replace(m, free_cell=m0.free_cell, free_cell_fallback=None) == m0  # nothing else changes
+
+
+@pytest.mark.parametrize(("extent", "margin", "cell"), [((0.2, 0.1, 0.1), 0.3, 0.02 / 3), ((0.2, 0.1, 0.1), 0.7, 0.01),
+                                                       ((0.5, 0.3, 0.3), 0.7, 0.01), ((2.0, 1.0, 1.0), 0.7, 0.02)])
+def test_a_wide_world_keeps_coarser_cells_for_a_thin_robot(extent, margin, cell):
+    # the box of start and goals, grown by the margin, in the finest whole fraction of 2 cm that needs at most
+    # FINE_CELLS cells, down to the 2 cm grid itself (a review's case: a thin robot's goals 1.6 m apart ran into
+    # the 40 M cell cap and the trial ended as an internal error)
+    from navstack.planner.map import FINE_CELLS, MapConfig, MapTooLarge, SensedMap
+
+    cfg = dataclasses.replace(TrialConfig().for_robot(0.011).field_planner.map, margin=margin)
+    assert (cfg.free_cell, cfg.free_cell_fallback) == (0.02 / 3, 0.02)
+    smap = SensedMap([0.0, 0.0, 0.0], extent, cfg)
+    assert smap.config.free_cell == pytest.approx(cell, rel=1e-12)
+    assert int(smap.free_dims.prod()) <= FINE_CELLS or cell == 0.02
+    finer = cell / 2 if cell != 0.02 / 3 else None  # the next finer grid would not have fitted
+    if finer is not None:
+        side = 0.02 / (round(0.02 / cell) + 1)
+        span = np.asarray(extent) + 2 * margin + 0.01
+        assert np.prod(np.ceil(span / side) + 1) > FINE_CELLS
+    plain = MapConfig(free_cell=0.02 / 3, margin=margin)  # no fallback: the cells as configured, or refused
+    if cell == 0.02:
+        with pytest.raises(MapTooLarge, match="more than 40,000,000"):
+            SensedMap([0.0, 0.0, 0.0], extent, plain)
+    else:
+        assert SensedMap([0.0, 0.0, 0.0], extent, plain).config.free_cell == 0.02 / 3
+
+
+def test_cells_too_small_for_the_world_are_bad_input_not_a_crash(tmp_path, capsys):
+    (tmp_path / "w.json").write_text(json.dumps(world_data(time_limit=1.0)))
+    (tmp_path / "s.json").write_text('{"field_planner": {"map": {"free_cell": 0.001}}}')
+    assert main(["run", str(tmp_path / "w.json"), "--out", str(tmp_path / "o"), "--settings",
+                 str(tmp_path / "s.json")]) == 2
+    err = capsys.readouterr().err
+    assert "the field planner's map cannot cover this world" in err and "more than 40,000,000" in err
 
 
 def test_the_default_robot_keeps_the_configuration_itself():

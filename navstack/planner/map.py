@@ -105,7 +105,7 @@ brought it to 0.083-0.100 ms, the same answers.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numba
 import numpy as np
@@ -125,6 +125,11 @@ class MapConfig:
         voxel: side of the voxels hits are merged in.
         bucket: side of the index buckets; queries look this far at most (a multiple of ``voxel``).
         free_cell: side of the seen-free cells.
+        free_cell_fallback: ``free_cell`` is a finer grid than this one, used only while the box needs at most
+            :data:`FINE_CELLS` of them; else cells of ``free_cell_fallback / j`` for the largest whole ``j`` that
+            fits, down to ``free_cell_fallback`` itself (``TrialConfig.for_robot`` sets it for a thinner robot: a wide
+            world keeps coarser cells, as the navigation function's cost grows with their number); ``None``: no
+            fallback (a box of more than :data:`MAX_FREE_CELLS` cells is refused).
         margin: the map covers the box around the start and the goals grown by this.
         average: samples in a voxel's running mean.
         hit_backoff: a ray that hits marks free space only up to this before its hit.
@@ -169,6 +174,7 @@ class MapConfig:
     voxel: float = 0.01
     bucket: float = 0.04
     free_cell: float = 0.02
+    free_cell_fallback: float | None = None
     margin: float = 0.7
     average: int = 8
     hit_backoff: float = 0.03
@@ -192,6 +198,8 @@ class MapConfig:
     def __post_init__(self) -> None:
         positive(self, "voxel", "bucket", "free_cell", "margin", "hit_backoff", "clear_radius", "clear_backoff",
                  "sensed_clear_radius")
+        if self.free_cell_fallback is not None:
+            positive(self, "free_cell_fallback")
         in_range(self, "sensed_clear_slope", lo=0.0, hi=1.0, hi_open=True, unit=" [m/m]")
         ratio = self.bucket / self.voxel
         if abs(ratio - round(ratio)) > 1e-9:
@@ -677,6 +685,33 @@ def _rows3(a: ArrayLike) -> NDArray[np.float64]:
 _NO_DIRECTIONS = np.empty((0, 3))
 
 
+MAX_FREE_CELLS = 40_000_000
+"""The most seen-free cells a :class:`SensedMap` holds (a byte each, and the navigation function's grid)."""
+FINE_CELLS = 8_000_000
+"""The most cells of a finer grid than ``MapConfig.free_cell_fallback``: the 1 cm grid of a typical world (0.6-0.8 M
+cells at 2 cm, 4.5-6.5 M at 1 cm: ``worlds/hard12/thin_slot.json``, the paper truss).  The navigation function's and
+the map's memory grow with the cells, so a wide world keeps coarser ones."""
+
+
+class MapTooLarge(ValueError):
+    """The start and goals span more than a :class:`SensedMap` of the configured cells can hold."""
+
+
+def _fitting_cells(cfg: MapConfig, extent: NDArray[np.float64]) -> MapConfig:
+    """``cfg`` itself, or with the coarser seen-free cells ``free_cell_fallback`` allows when its finer
+    ``free_cell`` would need more than :data:`FINE_CELLS` over ``extent`` [m]."""
+    def cells(side: float) -> int:
+        return int(np.prod(np.ceil(extent / side).astype(np.int64) + 1))
+
+    base = cfg.free_cell_fallback
+    if base is None or cfg.free_cell >= base or cells(cfg.free_cell) <= FINE_CELLS:
+        return cfg
+    for j in range(int(round(base / cfg.free_cell)) - 1, 1, -1):
+        if cells(base / j) <= FINE_CELLS:
+            return replace(cfg, free_cell=base / j)
+    return replace(cfg, free_cell=base)
+
+
 # ------------------------------------------------------------------------------------------ class
 class SensedMap:
     """Surface points and seen-free cells over the box ``lo .. hi`` [m] (see the module docstring)."""
@@ -689,14 +724,17 @@ class SensedMap:
             raise ValueError("SensedMap: lo and hi must be finite 3-vectors [m]")
         if np.any(hi <= lo):
             raise ValueError(f"SensedMap: empty box {lo} .. {hi}")
-        self.config = cfg
         # buckets on the voxel lattice: origin a multiple of the voxel
         self.origin = np.floor(lo / cfg.voxel) * cfg.voxel
         self.bucket_dims = np.ceil((hi - self.origin) / cfg.bucket).astype(np.int64) + 1
+        cfg = _fitting_cells(cfg, hi - self.origin)
+        self.config = cfg
         self.free_dims = np.ceil((hi - self.origin) / cfg.free_cell).astype(np.int64) + 1
         cells = int(np.prod(self.free_dims))
-        if cells > 40_000_000 or int(np.prod(self.bucket_dims)) > 4_000_000:
-            raise ValueError(f"SensedMap: the box {lo} .. {hi} is too large for a local map")
+        if cells > MAX_FREE_CELLS or int(np.prod(self.bucket_dims)) > 4_000_000:
+            raise MapTooLarge(f"SensedMap: the box {lo} .. {hi} [m] (start and goals grown by MapConfig.margin = "
+                              f"{cfg.margin:g} m) is too large for a local map: {cells:,} seen-free cells of "
+                              f"MapConfig.free_cell = {cfg.free_cell:g} m, more than {MAX_FREE_CELLS:,}")
         self.head = np.full(tuple(self.bucket_dims), -1, dtype=np.int64)
         self._visit = np.full(tuple(self.bucket_dims), -1, dtype=np.int64)  # the last ray that scanned a bucket
         self._near = np.zeros(tuple(self.bucket_dims), dtype=np.uint8)  # 1: one of the 27 buckets round it held a point
