@@ -25,7 +25,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["MeshFileError", "ear_clip", "is_convex", "load_triangles", "obj_text"]
+__all__ = ["MAX_CONCAVE_CORNERS", "MeshFileError", "cut_polygon", "ear_clip", "fan_is_right", "is_convex",
+           "load_triangles", "obj_text"]
 
 FloatArray = NDArray[np.float64]
 
@@ -67,20 +68,49 @@ def obj_text(text: str) -> str:
         return text
     positions = _obj_positions(lines)
     counts = {"v": 0, "vt": 0, "vn": 0}
-    out: list[str] = []
-    changed = False
-    for number, line in enumerate(lines, start=1):
+    faces: dict[int, list[list[str]]] = {}  # line index -> its corners, indices absolute
+    relative: list[int] = []  # lines with a relative index: rewritten
+    for number, line in enumerate(lines):
         head = line.split(maxsplit=1)[0] if line.strip() else ""
         if head in counts:
             counts[head] += 1
-        if head != "f":
-            out.append(line)
-            continue
-        corners = [_absolute(token, counts, number) for token in line.split()[1:]]
-        new = _face_lines(corners, positions, number)
-        changed = changed or new != [line]
-        out.extend(new)
+        elif head == "f":
+            tokens = line.split()[1:]
+            faces[number] = [_absolute(token, counts, number + 1) for token in tokens]
+            if any(part.startswith("-") for token in tokens for part in token.split("/")):
+                relative.append(number)
+    corner_indices = {k: _vertex_indices(c, len(positions)) for k, c in faces.items()}
+    polygons = {k: idx for k, idx in corner_indices.items() if idx is not None and len(idx) > 3}
+    keep = fan_is_right(list(polygons.values()), positions)
+    out = list(lines)
+    changed = False
+    for (number, idx), fan in zip(polygons.items(), keep, strict=True):
+        if not fan:
+            try:
+                triangles = cut_polygon(idx, positions)
+            except MeshFileError as exc:
+                raise MeshFileError(f"line {number + 1}: {exc}") from None
+            out[number] = "\n".join(_face_line([faces[number][i] for i in tri]) for tri in triangles)
+            changed = True
+    for number in relative:
+        if out[number] is lines[number]:  # not cut into triangles above
+            out[number] = _face_line(faces[number])
+        changed = True
     return "\n".join(out) + "\n" if changed else text
+
+
+def _face_line(corners: list[list[str]]) -> str:
+    return "f " + " ".join("/".join(c) for c in corners)
+
+
+def _vertex_indices(corners: list[list[str]], n: int) -> NDArray[np.int64] | None:
+    """The 0-based vertex indices of a face's corners, ``None`` when one is not a valid index (trimesh then says
+    why)."""
+    try:
+        idx = np.array([int(c[0]) - 1 for c in corners], dtype=np.int64)
+    except ValueError:
+        return None
+    return idx if len(idx) and idx.min() >= 0 and idx.max() < n else None
 
 
 def _is_face(line: str) -> bool:
@@ -117,81 +147,118 @@ def _absolute(token: str, counts: dict[str, int], number: int) -> list[str]:
     return parts
 
 
-def _face_lines(corners: list[list[str]], positions: FloatArray, number: int) -> list[str]:
-    """The ``f`` line(s) of one face: itself (absolute indices) when it is a triangle or convex, else its
-    ear-clipped triangles."""
-    def line(cs: list[list[str]]) -> str:
-        return "f " + " ".join("/".join(c) for c in cs)
-
-    if len(corners) <= 3:
-        return [line(corners)]
-    try:
-        idx = np.array([int(c[0]) - 1 for c in corners])
-        pts = positions[idx]
-    except (ValueError, IndexError):
-        return [line(corners)]  # an index trimesh will refuse with its own message
-    if not np.isfinite(pts).all() or is_convex(pts):
-        return [line(corners)]
-    try:
-        triangles = ear_clip(pts)
-    except MeshFileError as exc:
-        raise MeshFileError(f"line {number}: {exc}") from None
-    return [line([corners[i] for i in tri]) for tri in triangles]
-
-
 # --------------------------------------------------------------------------- polygons
 
-
-def _plane_coordinates(pts: FloatArray) -> FloatArray:
-    """(n, 2) coordinates of a polygon's corners in its plane (Newell's normal), orientation kept."""
-    nxt = np.roll(pts, -1, axis=0)
-    normal = np.array([np.sum((pts[:, 1] - nxt[:, 1]) * (pts[:, 2] + nxt[:, 2])),
-                       np.sum((pts[:, 2] - nxt[:, 2]) * (pts[:, 0] + nxt[:, 0])),
-                       np.sum((pts[:, 0] - nxt[:, 0]) * (pts[:, 1] + nxt[:, 1]))])
-    size = np.linalg.norm(normal)
-    if size == 0.0:
-        raise MeshFileError(f"a face of {len(pts)} corners encloses no area")
-    n = normal / size
-    u = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
-    u /= np.linalg.norm(u)
-    v = np.cross(n, u)
-    return np.column_stack([pts @ u, pts @ v])  # (u, v, n) right-handed: the polygon turns counter-clockwise
+MAX_CONCAVE_CORNERS = 1024
+"""The most corners of a concave face navstack cuts into triangles (ear clipping takes quadratic time)."""
 
 
-def _turns(p: FloatArray) -> FloatArray:
-    """z of the cross product of each corner's incoming and outgoing edge (positive: a left turn)."""
-    a = p - np.roll(p, 1, axis=0)
-    b = np.roll(p, -1, axis=0) - p
-    return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+def fan_is_right(polygons: list[NDArray[np.int64]], positions: FloatArray) -> NDArray[np.bool_]:
+    """For each polygon (vertex indices into ``positions``), whether trimesh's fan from its first corner covers
+    it exactly: it is convex in its plane, or encloses no area (its triangles are then degenerate and harmless).
+    Polygons of one corner count are tested together (a mesh of quads: one numpy pass)."""
+    out = np.ones(len(polygons), dtype=np.bool_)
+    by_size: dict[int, list[int]] = {}
+    for k, idx in enumerate(polygons):
+        by_size.setdefault(len(idx), []).append(k)
+    for n, ks in by_size.items():
+        if n <= 3:
+            continue
+        pts = positions[np.array([polygons[k] for k in ks])]  # (m, n, 3)
+        repeated = np.any(np.all(pts == np.roll(pts, -1, axis=1), axis=2), axis=1)
+        out[np.array(ks)[~repeated]] = _fan_covers(pts[~repeated])
+        for k in np.array(ks)[repeated]:  # a corner written twice in a row hides the turn it makes
+            kept = _distinct(positions[polygons[k]])
+            out[k] = len(kept) < 3 or bool(_fan_covers(positions[polygons[k][kept]][None])[0])
+    return out
 
 
 def is_convex(pts: FloatArray) -> bool:
-    """Whether a polygon (n, 3) is convex in its plane: every corner turns the same way and it goes round
-    once (a fan of triangles from any corner then covers exactly it)."""
-    try:
-        p = _plane_coordinates(pts)
-    except MeshFileError:
+    """Whether a polygon (n, 3) is convex in its plane: every corner turns the same way and it goes round once
+    (a fan of triangles from any corner then covers exactly it); corners written twice in a row count once."""
+    kept = _distinct(np.asarray(pts, dtype=np.float64))
+    if len(kept) < 3:
         return False
-    scale = np.ptp(p, axis=0).max() ** 2
-    turns = _turns(p)
-    if np.any(turns < -1e-12 * scale):
-        return False
-    edges = np.roll(p, -1, axis=0) - p
-    heading = np.unwrap(np.arctan2(edges[:, 1], edges[:, 0]))
-    total = heading[-1] - heading[0] + (np.arctan2(np.sin(heading[0] - heading[-1]),
-                                                   np.cos(heading[0] - heading[-1])))
-    return bool(abs(total - 2.0 * np.pi) < 1e-6)
+    p = np.asarray(pts, dtype=np.float64)[kept][None]
+    return bool(_fan_covers(p)[0]) and bool(np.linalg.norm(_newell(p)[0]) > 0.0)
+
+
+def cut_polygon(idx: NDArray[np.int64], positions: FloatArray) -> list[tuple[int, int, int]]:
+    """Triangles (positions into ``idx``) covering a concave polygon, by ear clipping; corners written twice in a
+    row count once.  :class:`MeshFileError` for one of more than :data:`MAX_CONCAVE_CORNERS` corners or one whose
+    outline crosses or touches itself."""
+    kept = _distinct(positions[idx])
+    if len(kept) > MAX_CONCAVE_CORNERS:
+        raise MeshFileError(f"a concave face of {len(kept)} corners; at most {MAX_CONCAVE_CORNERS} are cut into "
+                            "triangles here: split it into smaller polygons or triangles")
+    return [(int(kept[a]), int(kept[b]), int(kept[c])) for a, b, c in ear_clip(positions[idx][kept])]
+
+
+def _distinct(pts: FloatArray) -> NDArray[np.int64]:
+    """Indices of a polygon's corners without those equal to the corner before them (cyclically)."""
+    same = np.all(pts == np.roll(pts, 1, axis=0), axis=1)
+    if same.all():
+        return np.array([0], dtype=np.int64)
+    return np.flatnonzero(~same)
+
+
+def _newell(p: FloatArray) -> FloatArray:
+    """Newell's normals (m, 3) of polygons (m, n, 3): along the right-hand rule of their corner order, its length
+    twice the area."""
+    q = np.roll(p, -1, axis=1)
+    return np.stack([np.sum((p[..., 1] - q[..., 1]) * (p[..., 2] + q[..., 2]), axis=1),
+                     np.sum((p[..., 2] - q[..., 2]) * (p[..., 0] + q[..., 0]), axis=1),
+                     np.sum((p[..., 0] - q[..., 0]) * (p[..., 1] + q[..., 1]), axis=1)], axis=1)
+
+
+def _in_plane(p: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
+    """(m, n, 2) coordinates of polygons (m, n, 3) in their planes, counter-clockwise (Newell's normal), and which
+    enclose no area."""
+    normal = _newell(p)
+    size = np.linalg.norm(normal, axis=1)
+    flat = size == 0.0
+    n = normal / np.where(flat, 1.0, size)[:, None]
+    n[flat] = (0.0, 0.0, 1.0)
+    helper = np.where((np.abs(n[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+    u = np.cross(n, helper)
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    v = np.cross(n, u)  # (u, v, n) right-handed: the polygon turns counter-clockwise
+    return np.stack([np.einsum("mnk,mk->mn", p, u), np.einsum("mnk,mk->mn", p, v)], axis=2), flat
+
+
+def _fan_covers(p: FloatArray) -> NDArray[np.bool_]:
+    """For polygons (m, n, 3) without repeated corners: convex (no corner turning right, going round once), or
+    enclosing no area."""
+    q, flat = _in_plane(p)
+    e = np.roll(q, -1, axis=1) - q
+    prev = np.roll(e, 1, axis=1)
+    cross = prev[..., 0] * e[..., 1] - prev[..., 1] * e[..., 0]
+    dot = np.sum(prev * e, axis=2)
+    scale = np.ptp(q, axis=1).max(axis=1) ** 2
+    left = np.all(cross >= -1e-12 * scale[:, None], axis=1)
+    once = np.abs(np.arctan2(cross, dot).sum(axis=1) - 2.0 * np.pi) < 1e-6
+    return flat | (left & once)
+
+
+def _plane_coordinates(pts: FloatArray) -> FloatArray:
+    """(n, 2) coordinates of one polygon's corners in its plane, counter-clockwise; :class:`MeshFileError` when it
+    encloses no area."""
+    q, flat = _in_plane(np.asarray(pts, dtype=np.float64)[None])
+    if flat[0]:
+        raise MeshFileError(f"a face of {len(pts)} corners encloses no area")
+    return q[0]
 
 
 def ear_clip(pts: FloatArray) -> list[tuple[int, int, int]]:
     """Triangles (corner indices, the polygon's own orientation) covering the simple polygon ``pts`` (n, 3),
-    by ear clipping in its plane; :class:`MeshFileError` when no ear is left (the outline crosses itself)."""
+    by ear clipping in its plane; :class:`MeshFileError` when its outline crosses or touches itself."""
     p = _plane_coordinates(pts)
     scale = np.ptp(p, axis=0).max() ** 2
     eps = 1e-12 * scale
+    problem = ("its outline crosses or touches itself (a hole joined by a bridge edge, a spike of no width); "
+               "split it into simple polygons or triangles")
     if _crossing_edges(p, eps):
-        raise MeshFileError(f"a face of {len(p)} corners is not a simple polygon (its outline crosses itself); "
-                            "split it into simple polygons or triangles")
+        raise MeshFileError(f"a face of {len(p)} corners is not a simple polygon: {problem}")
     ring = list(range(len(p)))
     out: list[tuple[int, int, int]] = []
     while len(ring) > 3:
@@ -205,14 +272,17 @@ def ear_clip(pts: FloatArray) -> list[tuple[int, int, int]]:
             ring.pop(k)
             break
         else:
-            raise MeshFileError(f"a face of {len(p)} corners is not a simple polygon (its outline crosses itself); "
-                                "split it into simple polygons or triangles")
+            straight = [k for k in range(len(ring))
+                        if abs(_cross(p[ring[k - 1]], p[ring[k]], p[ring[(k + 1) % len(ring)]])) <= eps]
+            if not straight:
+                raise MeshFileError(f"a face of {len(p)} corners is not a simple polygon: {problem}")
+            ring.pop(straight[0])  # a corner on a straight edge: drop it, nothing of the area goes with it
     out.append((ring[0], ring[1], ring[2]))
     return out
 
 
 def _crossing_edges(p: FloatArray, eps: float) -> bool:
-    """Whether two edges of the closed outline ``p`` (n, 2) that share no corner cross (or touch)."""
+    """Whether two edges of the closed outline ``p`` (n, 2) that share no corner cross or touch."""
     a, b = p, np.roll(p, -1, axis=0)
     n = len(p)
     i, j = np.triu_indices(n, k=2)

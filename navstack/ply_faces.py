@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from navstack.mesh_file import MeshFileError, ear_clip, is_convex
+from navstack.mesh_file import MeshFileError, cut_polygon, fan_is_right
 
 __all__ = ["PlyData", "concave_ply", "read_ply"]
 
@@ -53,20 +53,26 @@ def concave_ply(path: str) -> Any:
     import trimesh
 
     n = len(data.vertices)
-    triangles: list[tuple[int, int, int]] = []
-    for k, face in enumerate(data.faces):
-        if len(face) < 3 or face.min() < 0 or face.max() >= n:
-            raise MeshFileError(f"face {k} has {len(face)} corners {face.tolist()[:8]} (needs 3 or more, each "
-                                f"a vertex index below {n})")
-        pts = data.vertices[face]
-        if len(face) == 3 or is_convex(pts):
-            triangles += [(int(face[0]), int(face[j]), int(face[j + 1])) for j in range(1, len(face) - 1)]
+    faces = [f for f in data.faces if len(f) >= 3]  # a face of fewer corners has no surface (trimesh drops it too)
+    for k, face in enumerate(faces):
+        if face.min() < 0 or face.max() >= n:
+            raise MeshFileError(f"a face names vertex {int(face.max() if face.max() >= n else face.min())}; the "
+                                f"file has {n} (face {k} of those with 3 or more corners)")
+    polygons = [f for f in faces if len(f) > 3]
+    fan = iter(fan_is_right(polygons, data.vertices))
+    triangles: list[NDArray[np.int64]] = []
+    for k, face in enumerate(faces):
+        if len(face) == 3:
+            triangles.append(face[None])
+        elif next(fan):  # convex: the fan from the first corner, as trimesh cuts it
+            triangles.append(np.column_stack([np.full(len(face) - 2, face[0]), face[1:-1], face[2:]]))
         else:
             try:
-                triangles += [tuple(int(face[i]) for i in tri) for tri in ear_clip(pts)]
+                cut = cut_polygon(face, data.vertices)
             except MeshFileError as exc:
                 raise MeshFileError(f"face {k}: {exc}") from None
-    return trimesh.Trimesh(vertices=data.vertices, faces=np.array(triangles, dtype=np.int64))
+            triangles.append(face[np.array(cut)])
+    return trimesh.Trimesh(vertices=data.vertices, faces=np.concatenate(triangles))
 
 
 def read_ply(path: str) -> PlyData | None:

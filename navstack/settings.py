@@ -21,6 +21,7 @@ import hashlib
 import json
 import math
 import os
+import stat
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -32,6 +33,13 @@ __all__ = ["MAX_SETTINGS_BYTES", "SettingsError", "load_settings", "settings_dig
 
 MAX_SETTINGS_BYTES = 1 << 20
 """A settings file larger than this (1 MiB) is refused before it is parsed."""
+
+MAX_INT = 2**31 - 1
+"""The largest integer setting (counts and budgets; what the simulator's and the compiled code's ints hold)."""
+
+FROM_THE_WORLD = ("sensor.body_radius", "field_planner.repulsion.body_radius", "reactive_planner.body_radius")
+"""Values a trial takes from its world (``robot.serpentine_radius``, :meth:`TrialConfig.for_robot`): a file may
+repeat their defaults (``navstack settings`` prints them) but not change them, since the world's would replace it."""
 
 
 class SettingsError(ValueError):
@@ -64,13 +72,16 @@ def load_settings(path: str | os.PathLike[str]) -> TrialConfig:
     naming the file (unreadable, too large, not JSON, a bad setting)."""
     file = Path(path)
     try:
-        if file.stat().st_size > MAX_SETTINGS_BYTES:
+        st = file.stat()
+        if not stat.S_ISREG(st.st_mode):  # a folder, or a pipe whose read would wait for a writer
+            raise SettingsError(f"{file}: expected a settings file (a JSON object), not a folder or a device")
+        if st.st_size > MAX_SETTINGS_BYTES:
             raise SettingsError(f"{file}: larger than {MAX_SETTINGS_BYTES} bytes; a settings file is a few lines")
         text = file.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise SettingsError(f"{file}: cannot read the settings file: {exc}") from exc
     try:
-        data = json.loads(text, parse_constant=_no_constant)
+        data = json.loads(text, parse_constant=_no_constant, object_pairs_hook=_no_repeats)
     except (json.JSONDecodeError, ValueError, RecursionError) as exc:
         raise SettingsError(f"{file}: invalid JSON: {exc}") from exc
     return settings_from_dict(data, str(file))
@@ -78,6 +89,16 @@ def load_settings(path: str | os.PathLike[str]) -> TrialConfig:
 
 def _no_constant(name: str) -> None:
     raise ValueError(f"{name} is not a number JSON allows")
+
+
+def _no_repeats(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object, refusing a key given twice (which one was meant?)."""
+    out: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in out:
+            raise ValueError(f"the key {key!r} is given twice in one object")
+        out[key] = value
+    return out
 
 
 def _apply(obj: Any, data: Mapping[str, Any], where: str, path: str) -> Any:
@@ -88,6 +109,9 @@ def _apply(obj: Any, data: Mapping[str, Any], where: str, path: str) -> Any:
         at = f"{path}.{key}" if path else str(key)
         if key not in fields:
             raise SettingsError(f"{where}: {at}: unknown setting; expected one of {', '.join(sorted(fields))}")
+        if at in FROM_THE_WORLD and value != getattr(obj, key):  # as printed (the default): harmless
+            raise SettingsError(f"{where}: {at}: not a setting: every trial takes it from its world's "
+                                "robot.serpentine_radius")
         current = getattr(obj, key)
         if dataclasses.is_dataclass(current):
             if not isinstance(value, Mapping):
@@ -111,6 +135,8 @@ def _value(current: Any, value: Any, annotation: str, where: str, at: str) -> An
         ok = isinstance(value, bool)
     elif isinstance(current, int) and not annotation.startswith("float"):
         ok = isinstance(value, int) and not isinstance(value, bool)
+        if ok and abs(value) > MAX_INT:
+            raise SettingsError(f"{where}: {at}: {value} is out of range: at most {MAX_INT} in size")
     elif isinstance(current, (int, float)) or annotation.startswith("float"):
         ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
         value = float(value) if ok else value

@@ -184,3 +184,45 @@ def test_scripted_trials_read_as_the_independent_checker_reads_the_files(name, r
     assert r.reason == reason
     assert r.metrics["min_clearance"] * 1e3 == pytest.approx(clearance_mm, abs=0.01)
     assert r.metrics["contacts"] == contacts
+
+
+def _obj(tmp_path, points, faces, name="m.obj"):
+    path = tmp_path / name
+    path.write_text("".join(f"v {x} {y} {z}\n" for x, y, z in points) + "".join(f"f {f}\n" for f in faces))
+    return str(path)
+
+
+def test_a_corner_written_twice_counts_once(tmp_path):
+    # a review's cases: the repeated reflex corner hid the notch (fanned: area 4); repeated corners of convex
+    # faces, and a closing corner written again, were refused as crossing themselves
+    L3 = [(x, y, 0.0) for x, y in L_SHAPE]
+    v, f = load_triangles(_obj(tmp_path, L3, ["1 2 3 3 4 5 6"]))
+    assert _area(v, f) == pytest.approx(3.0) and _in_l_shape(v[f].mean(axis=1)[:, :2]).all()
+    square = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]
+    assert _area(*load_triangles(_obj(tmp_path, square, ["1 2 3 4 1"], "s.obj"))) == pytest.approx(1.0)
+    pentagon = [(np.cos(a), np.sin(a), 0.0) for a in np.arange(5) * 2 * np.pi / 5]
+    v, f = load_triangles(_obj(tmp_path, pentagon, ["1 2 3 4 4 5"], "p.obj"))
+    assert _area(v, f) == pytest.approx(2.5 * np.sin(2 * np.pi / 5))
+
+
+def test_faces_without_area_are_left_as_trimesh_reads_them(tmp_path):
+    points = [(0, 0, 0), (1, 0, 0), (2, 0, 0), (3, 0, 0), (0, 1, 0)]  # four corners on a line: no area
+    v, f = load_triangles(_obj(tmp_path, points, ["1 2 3 4", "1 2 5"]))
+    assert _area(v, f) == pytest.approx(0.5)
+    verts = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (3, 3, 3)]
+    data = _ply_header("ascii", 5, 2) + "".join(f"{x} {y} {z}\n" for x, y, z in verts).encode() + \
+        b"4 0 1 2 3\n2 0 4\n"  # a face of two corners beside a polygon: no surface, skipped
+    (tmp_path / "two.ply").write_bytes(data)
+    assert _area(*load_triangles(str(tmp_path / "two.ply"))) == pytest.approx(1.0)
+
+
+def test_a_hole_bridged_into_the_outline_and_huge_concave_faces_are_refused_saying_why(tmp_path):
+    outer = [(0, 0, 0), (4, 0, 0), (4, 4, 0), (0, 4, 0)]
+    hole = [(1, 1, 0), (1, 3, 0), (3, 3, 0), (3, 1, 0)]
+    path = _obj(tmp_path, outer + hole, ["1 2 3 4 1 5 6 7 8 5"])
+    with pytest.raises(MeshFileError, match="line 9: .*crosses or touches itself \\(a hole joined by a bridge"):
+        load_triangles(path)
+    n = 1026  # a comb: concave, and more corners than are cut here
+    comb = [(k / n, (k % 2) * 0.5, 0.0) for k in range(n - 2)] + [(1.0, -1.0, 0.0), (0.0, -1.0, 0.0)]
+    with pytest.raises(MeshFileError, match="a concave face of 1026 corners; at most 1024"):
+        load_triangles(_obj(tmp_path, comb, [" ".join(str(k + 1) for k in range(n))], "comb.obj"))

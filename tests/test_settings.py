@@ -73,6 +73,10 @@ def test_overrides_change_only_what_they_name():
     ({"scripted_speed": {"x": 1}}, "scripted_speed: expected a finite number, got an object"),
     ({"field_planner": {"map": {"shadow_depths": [0.01, "x"]}}}, "field_planner.map.shadow_depths: expected a list"),
     ([1, 2], "expected a JSON object of settings, got an array"),
+    ({"sensor": {"body_radius": 0.01}}, "sensor.body_radius: not a setting: every trial takes it from its world"),
+    ({"field_planner": {"repulsion": {"body_radius": 0.05}}}, "field_planner.repulsion.body_radius: not a setting"),
+    ({"field_planner": {"search": {"max_expansions": 10**24}}}, "max_expansions: 1000000000000000000000000 is out"),
+    ({"servo": {"solver_iterations": 2**31}}, "servo.solver_iterations: 2147483648 is out of range"),
 ])
 def test_bad_settings_name_the_setting(data, needle):
     with pytest.raises(SettingsError, match=None) as info:
@@ -89,6 +93,12 @@ def test_bad_files_are_refused_with_their_name(tmp_path):
             load_settings(f)
     with pytest.raises(SettingsError, match="cannot read"):
         load_settings(tmp_path / "missing.json")
+    with pytest.raises(SettingsError, match="not a folder"):
+        load_settings(tmp_path)
+    f = tmp_path / "s.json"
+    f.write_text('{"sensor": {"max_range": 0.5, "max_range": 0.6}}')
+    with pytest.raises(SettingsError, match="the key 'max_range' is given twice"):
+        load_settings(f)
 
 
 def test_a_settings_file_of_more_than_a_mebibyte_is_refused_before_parsing(tmp_path):
