@@ -161,9 +161,7 @@ def fan_is_right(polygons: list[NDArray[np.int64]], positions: FloatArray) -> ND
     by_size: dict[int, list[int]] = {}
     for k, idx in enumerate(polygons):
         by_size.setdefault(len(idx), []).append(k)
-    for n, ks in by_size.items():
-        if n <= 3:
-            continue
+    for ks in by_size.values():
         pts = positions[np.array([polygons[k] for k in ks])]  # (m, n, 3)
         repeated = np.any(np.all(pts == np.roll(pts, -1, axis=1), axis=2), axis=1)
         out[np.array(ks)[~repeated]] = _fan_covers(pts[~repeated])
@@ -271,12 +269,8 @@ def ear_clip(pts: FloatArray) -> list[tuple[int, int, int]]:
             out.append((a, b, c))
             ring.pop(k)
             break
-        else:
-            straight = [k for k in range(len(ring))
-                        if abs(_cross(p[ring[k - 1]], p[ring[k]], p[ring[(k + 1) % len(ring)]])) <= eps]
-            if not straight:
-                raise MeshFileError(f"a face of {len(p)} corners is not a simple polygon: {problem}")
-            ring.pop(straight[0])  # a corner on a straight edge: drop it, nothing of the area goes with it
+        else:  # a simple polygon always has an ear (Meisters' two ears theorem)
+            raise MeshFileError(f"a face of {len(p)} corners is not a simple polygon: {problem}")
     out.append((ring[0], ring[1], ring[2]))
     return out
 

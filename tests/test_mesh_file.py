@@ -120,6 +120,19 @@ def test_ear_clipping_covers_random_simple_polygons_exactly():
         assert (normal @ outline >= -1e-12).all()
 
 
+def test_newells_normal_is_the_plane_normal_times_twice_the_area():
+    from navstack.mesh_file import _newell
+
+    rng = np.random.default_rng(7)
+    for _ in range(50):
+        R = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+        p2 = _star_polygon(rng, int(rng.integers(3, 12)))
+        pts = np.column_stack([p2, np.zeros(len(p2))]) @ R.T + rng.normal(size=3)
+        shoelace = 0.5 * (np.dot(p2[:, 0], np.roll(p2[:, 1], -1)) - np.dot(p2[:, 1], np.roll(p2[:, 0], -1)))
+        # the plane's normal is R's third column (the polygon's own z axis); signed by the corner order
+        assert np.allclose(_newell(pts[None])[0], 2.0 * shoelace * R[:, 2], atol=1e-12)
+
+
 def test_convexity():
     square = np.array([(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], dtype=float)
     assert is_convex(square) and is_convex(square[::-1])
