@@ -139,6 +139,7 @@ def test_convexity():
     assert not is_convex(np.column_stack([L_SHAPE, np.ones(6)]))
     pentagram = np.array([(np.cos(a), np.sin(a), 0.0) for a in np.arange(5) * 4 * np.pi / 5])
     assert not is_convex(pentagram)  # every corner turns left, but it goes round twice
+    assert not is_convex(np.zeros((4, 3))) and not is_convex(np.array([(0, 0, 0), (1, 0, 0), (1, 0, 0), (0, 0, 0.0)]))
 
 
 def _ply_header(fmt: str, n_v: int, n_f: int) -> bytes:
@@ -216,6 +217,15 @@ def test_a_corner_written_twice_counts_once(tmp_path):
     pentagon = [(np.cos(a), np.sin(a), 0.0) for a in np.arange(5) * 2 * np.pi / 5]
     v, f = load_triangles(_obj(tmp_path, pentagon, ["1 2 3 4 4 5"], "p.obj"))
     assert _area(v, f) == pytest.approx(2.5 * np.sin(2 * np.pi / 5))
+
+
+def test_concave_faces_with_texture_and_normal_indices(tmp_path):
+    # as Blender writes them: v/vt/vn corners; the vertex is the first index of each (a mutation run's survivor)
+    text = "".join(f"v {x} {y} 1\n" for x, y in L_SHAPE) + "vt 0 0\nvn 0 0 1\n" + \
+        "f " + " ".join(f"{k}/1/1" for k in range(1, 7)) + "\n"
+    (tmp_path / "l.obj").write_text(text)
+    v, f = load_triangles(str(tmp_path / "l.obj"))
+    assert _area(v, f) == pytest.approx(3.0) and _in_l_shape(v[f].mean(axis=1)[:, :2]).all()
 
 
 def test_faces_without_area_are_left_as_trimesh_reads_them(tmp_path):
