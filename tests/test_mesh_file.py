@@ -249,3 +249,42 @@ def test_a_hole_bridged_into_the_outline_and_huge_concave_faces_are_refused_sayi
     comb = [(k / n, (k % 2) * 0.5, 0.0) for k in range(n - 2)] + [(1.0, -1.0, 0.0), (0.0, -1.0, 0.0)]
     with pytest.raises(MeshFileError, match="a concave face of 1026 corners; at most 1024"):
         load_triangles(_obj(tmp_path, comb, [" ".join(str(k + 1) for k in range(n))], "comb.obj"))
+
+
+DART = [(0.0, 0.0), (2.0, 1.0), (0.0, 2.0), (0.8, 1.0)]  # a concave quad (area 1.2): its fan from (0, 0), beside
+# the inward corner, covers the notch too (area 2.8)
+
+
+def _ply_bytes(fmt: str, verts, faces) -> bytes:
+    if fmt == "ascii":
+        return _ply_header(fmt, len(verts), len(faces)) + "".join(f"{x} {y} {z}\n" for x, y, z in verts).encode() + \
+            "".join(f"{len(f)} {' '.join(map(str, f))}\n" for f in faces).encode()
+    e = "<" if fmt.endswith("little_endian") else ">"
+    return _ply_header(fmt, len(verts), len(faces)) + b"".join(struct.pack(e + "3f", *v) for v in verts) + \
+        b"".join(struct.pack(e + "B", len(f)) + struct.pack(e + f"{len(f)}i", *f) for f in faces)
+
+
+@pytest.mark.parametrize("fmt", ["ascii", "binary_little_endian", "binary_big_endian"])
+def test_ply_faces_all_of_one_size_concave_and_the_smallest_first(tmp_path, fmt):
+    # two darts whose fans from their first corners cover their notches: the faces, all of one size, take the
+    # one-pass reading
+    verts = [(x, y, 0.0) for x, y in DART] + [(x + 5, y, 1.0) for x, y in DART]
+    faces = [[0, 1, 2, 3], [4, 5, 6, 7]]
+    (tmp_path / "d.ply").write_bytes(_ply_bytes(fmt, verts, faces))
+    v, f = load_triangles(str(tmp_path / "d.ply"))
+    assert _area(v, f) == pytest.approx(2.4) and len(f) == 4
+    # a triangle first, then polygons of more corners: a reading that took every face to be a triangle would
+    # read garbage
+    tri = [(0.0, 5.0, 0.0), (1.0, 5.0, 0.0), (0.0, 6.0, 0.0)]
+    verts2 = verts + tri
+    faces2 = [[8, 9, 10], [0, 1, 2, 3], [4, 5, 6, 7]]
+    (tmp_path / "t.ply").write_bytes(_ply_bytes(fmt, verts2, faces2))
+    v, f = load_triangles(str(tmp_path / "t.ply"))
+    assert _area(v, f) == pytest.approx(2.9) and len(f) == 5
+
+
+def test_a_ply_this_reader_cannot_parse_is_left_to_trimesh(tmp_path):
+    from navstack.ply_faces import concave_ply
+
+    (tmp_path / "x.ply").write_bytes(b"ply\nformat ascii 1.0\nelement vertex many\nend_header\n")
+    assert concave_ply(str(tmp_path / "x.ply")) is None  # trimesh then reads it, or says why not
