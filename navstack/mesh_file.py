@@ -162,12 +162,7 @@ def fan_is_right(polygons: list[NDArray[np.int64]], positions: FloatArray) -> ND
     for k, idx in enumerate(polygons):
         by_size.setdefault(len(idx), []).append(k)
     for ks in by_size.values():
-        pts = positions[np.array([polygons[k] for k in ks])]  # (m, n, 3)
-        repeated = np.any(np.all(pts == np.roll(pts, -1, axis=1), axis=2), axis=1)
-        out[np.array(ks)[~repeated]] = _fan_covers(pts[~repeated])
-        for k in np.array(ks)[repeated]:  # a corner written twice in a row hides the turn it makes
-            kept = _distinct(positions[polygons[k]])
-            out[k] = len(kept) < 3 or bool(_fan_covers(positions[polygons[k][kept]][None])[0])
+        out[np.array(ks)] = _fan_covers(positions[np.array([polygons[k] for k in ks])])  # (m, n, 3) at once
     return out
 
 
@@ -225,8 +220,9 @@ def _in_plane(p: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
 
 
 def _fan_covers(p: FloatArray) -> NDArray[np.bool_]:
-    """For polygons (m, n, 3) without repeated corners: convex (no corner turning right, going round once), or
-    enclosing no area."""
+    """For polygons (m, n, 3): convex (no corner turning right, going round once), or enclosing no area.  A corner
+    written twice in a row makes a zero-length edge whose two turns count 0, so the turn it makes is missed and
+    the sum is not one round: such a face is cut instead (:func:`cut_polygon` counts the corner once)."""
     q, flat = _in_plane(p)
     e = np.roll(q, -1, axis=1) - q
     prev = np.roll(e, 1, axis=1)

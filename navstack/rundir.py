@@ -109,9 +109,11 @@ def write_run_world(world: World, out_dir: str | os.PathLike[str]) -> Path:
 def write_run_settings(config: Any, out_dir: str | os.PathLike[str]) -> Path:
     """Write every setting of ``config`` (a :class:`navstack.trial.TrialConfig`) as ``out_dir/settings.json``
     (the form ``navstack run --settings`` reads back); returns its path."""
+    from navstack.settings import settings_to_dict
+
     path = Path(out_dir) / SETTINGS_FILE
     tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(dataclasses.asdict(config), indent=2) + "\n", encoding="utf-8")
+    tmp.write_text(json.dumps(settings_to_dict(config), indent=2) + "\n", encoding="utf-8")
     os.replace(tmp, path)
     return path
 
