@@ -288,3 +288,27 @@ def test_a_ply_this_reader_cannot_parse_is_left_to_trimesh(tmp_path):
 
     (tmp_path / "x.ply").write_bytes(b"ply\nformat ascii 1.0\nelement vertex many\nend_header\n")
     assert concave_ply(str(tmp_path / "x.ply")) is None  # trimesh then reads it, or says why not
+
+
+@pytest.mark.parametrize("bad", [4, -1])
+def test_a_ply_face_naming_a_vertex_the_file_lacks_is_refused(tmp_path, bad):
+    # 4 vertices: a quad naming vertex 4 (one past the last) or -1 must be refused, naming the index, not read
+    # out of bounds (ply_faces mutation run: an index past the end alone went unnoticed)
+    verts = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]
+    (tmp_path / "q.ply").write_bytes(_ply_bytes("ascii", verts, [[0, 1, 2, bad]]))
+    with pytest.raises(MeshFileError, match=f"a face names vertex {bad}; the file has 4"):
+        load_triangles(str(tmp_path / "q.ply"))
+
+
+def test_a_file_not_starting_with_ply_is_not_read_as_one(tmp_path):
+    from navstack.ply_faces import concave_ply
+
+    # a valid file's body with its first line changed: not a PLY file, whatever follows (left to trimesh)
+    data = _ply_bytes("ascii", [(x, y, 0.0) for x, y in DART], [[0, 1, 2, 3]])
+    assert concave_ply(str(_write(tmp_path / "ok.ply", data))) is not None
+    assert concave_ply(str(_write(tmp_path / "no.ply", b"plx" + data[3:]))) is None
+
+
+def _write(path, data: bytes):
+    path.write_bytes(data)
+    return path
