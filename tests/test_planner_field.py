@@ -507,6 +507,37 @@ def test_the_larger_goal_ball_is_tried_again_from_the_robot_not_from_each_branch
     assert fractions == [CFG.search.goal_fraction]
 
 
+def test_a_spent_budget_gets_a_tight_try_only_once_an_escape_was_made_for_the_goal(monkeypatch):
+    """Every search spends its budget (3 expansions): before any escape for the goal, the full replan tries the
+    larger goal ball and no tight margin (a tight plan after a spent budget slips into rack slots); after one
+    escape it tries the tight margin too (held-out worlds reached: hard7 three_walls, hard3 vessel_a).  A branch
+    point's search (``at``) never does."""
+    import navstack.planner.field as field
+
+    tries = []
+    real = field.search
+
+    def spy(smap, p0, h0, goals, tolerances, k, config, repulsion, *args, **kwargs):
+        tries.append((config.goal_fraction, repulsion.margin))
+        return real(smap, p0, h0, goals, tolerances, k, replace(config, max_expansions=3), repulsion, *args,
+                    **kwargs)
+
+    pl = FieldPlanner([0, 0, 0], [1, 0, 0], [[-0.3, 0.4, 0.0]], [0.02])
+    monkeypatch.setattr(field, "search", spy)
+    p0, h0 = pl.follower.state()
+    normal, relaxed = CFG.search.goal_fraction, field.RELAXED_GOAL_FRACTION
+    margin, tight = CFG.repulsion.margin, CFG.tight_margin
+    pl._plan_from(p0, h0, 0)
+    assert tries == [(normal, margin), (relaxed, margin)] and pl.tight_plans == 0
+    tries.clear()
+    pl._goal_retreats[0] = 1
+    pl._plan_from(p0, h0, 0)
+    assert tries == [(normal, margin), (relaxed, margin), (normal, tight)]
+    tries.clear()
+    pl._plan_from(p0, h0, 0, at=pl.path.end_arc_length)
+    assert tries == [(normal, margin)]
+
+
 def _planner_before_a_narrow_slot(half_width: float, config: FieldPlannerConfig = CFG) -> FieldPlanner:
     """A planner at the origin heading +x inside a sensed square duct (walls 8 cm from its axis, from x = -0.3
     to 0.3; points every 1 cm), its end at x = 0.3 a plate with a vertical slot ``2 half_width`` wide on the

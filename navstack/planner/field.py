@@ -11,7 +11,8 @@ sensing.  Here the field is descended along paths the tip can actually follow:
    commanded state through every remaining goal: the path of least potential that the tip can
    follow; **replanned** when a new surface point comes near the path ahead, when the goal index
    moves, and every ``replan_period`` while the map changes; a full replan that finds no path keeping
-   ``Repulsion.margin`` tries once more with ``tight_margin`` (a passage too narrow for the margin);
+   ``Repulsion.margin`` tries once more with ``tight_margin`` (a passage too narrow for the margin; after an
+   escape for the goal also one whose search spent its budget);
 4. **steering** (:mod:`navstack.planner.steering`): the command runs along the plan, slowing near
    surfaces, stopping at the plan's end;
 5. **escape** (:mod:`navstack.planner.escape`, run by :mod:`navstack.planner.recovery`): when no path leads
@@ -94,7 +95,8 @@ class FieldPlannerConfig:
         nav_period: the navigation function is recomputed at least this often while the map
             changes [s] (and whenever the next goal changes, or a search fails with the old one).
         tight_margin: when a full replan from the command finds that no plan keeps ``Repulsion.margin`` from
-            sensed surfaces (``NO_PATH``, not a spent budget), one more search keeps this margin instead [m]: a
+            sensed surfaces (``NO_PATH``; or its budget is spent once an escape has been made for the goal),
+            one more search keeps this margin instead [m]: a
             passage narrower than twice ``body_radius + margin`` (a 7 cm slot for the 5 cm body).  The plan found is
             followed while it keeps this margin, and replaced once a replan finds one that keeps
             ``Repulsion.margin``.  5 mm, not less: the range noise is 4 mm (1 sigma), and with 3 mm a review
@@ -333,8 +335,12 @@ class FieldPlanner(Recovery):
             deep = attempt(replace(scfg, max_expansions=cfg.deep_budget))
             if deep.status == REACHED:
                 return deep
-        if plan.status == NO_PATH and cfg.tight_margin is not None and cfg.tight_margin < cfg.repulsion.margin:
-            # no way with the margin (not a spent budget: a tight plan then slips into rack slots it backs out of)
+        spent_after_escape = plan.status == PARTIAL and escapes[1] >= 1
+        if (plan.status == NO_PATH or spent_after_escape) \
+                and cfg.tight_margin is not None and cfg.tight_margin < cfg.repulsion.margin:
+            # no way with the margin, or none found within the budget once an escape for this goal has shown
+            # that the way with the margin does not go on (before any escape, a tight plan after a spent budget
+            # slips into rack slots it backs out of)
             tight = attempt(scfg, repulsion=replace(cfg.repulsion, margin=cfg.tight_margin))
             if tight.status == REACHED:
                 self.tight_plans += 1
