@@ -2,14 +2,14 @@
 
 trimesh cuts a PLY polygon into a fan of triangles from its first corner (wrong for a concave one) and refuses
 a binary PLY whose faces have different numbers of corners (``PLY is unexpected length``, though the format
-allows it).  :func:`concave_ply` reads the header and the vertex and face elements itself (ASCII and both
-binary byte orders, any scalar property types, other elements skipped); a file whose faces are all triangles
-(or that it cannot parse: trimesh then reads it, or says why not) is left to trimesh, unchanged.
+allows it).  :func:`concave_ply` reads the vertex and face elements with ``plyfile`` (ASCII and both binary
+byte orders, lists of any lengths) and cuts the polygons itself; a file whose faces are all triangles (or that
+plyfile cannot parse: trimesh then reads it, or says why not) is left to trimesh, unchanged.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -19,17 +19,7 @@ from navstack.mesh_file import MeshFileError, cut_polygon, fan_is_right
 
 __all__ = ["PlyData", "concave_ply", "read_ply"]
 
-_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
-          "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
-          "float": "f4", "float32": "f4", "double": "f8", "float64": "f8"}
 _FACE_NAMES = ("vertex_indices", "vertex_index")
-
-
-@dataclass
-class _Element:
-    name: str
-    count: int
-    props: list[tuple[str, str, str | None]] = field(default_factory=list)  # (name, type, list count type)
 
 
 @dataclass
@@ -76,111 +66,21 @@ def concave_ply(path: str) -> Any:
 
 
 def read_ply(path: str) -> PlyData | None:
-    """The vertex positions and face lists of a PLY file (``None`` without a face list)."""
-    with open(path, "rb") as fh:
-        raw = fh.read()
-    fmt, elements, start = _header(raw)
-    if fmt == "ascii":
-        values = _ascii_elements(raw[start:].decode("ascii", errors="replace").split(), elements)
-    else:
-        values = _binary_elements(raw[start:], elements, "<" if fmt == "binary_little_endian" else ">")
-    vertex = values.get("vertex")
-    face = values.get("face")
-    if vertex is None or face is None:
+    """The vertex positions and face lists of a PLY file (``None`` without a face list), read by ``plyfile``
+    (ASCII and both binary byte orders, lists of any lengths); ``ValueError`` for a file it cannot parse."""
+    import plyfile
+
+    try:
+        ply = plyfile.PlyData.read(path)
+    except plyfile.PlyParseError as exc:
+        raise ValueError(str(exc)) from None
+    names = [el.name for el in ply.elements]
+    if "vertex" not in names or "face" not in names:
         return None
-    faces = next((face[name] for name in _FACE_NAMES if name in face), None)
-    if faces is None:
-        faces = next((v for v in face.values() if isinstance(v, list)), None)
-    if faces is None:
+    vertex, face = ply["vertex"], ply["face"]
+    lists = [prop.name for prop in face.properties if isinstance(prop, plyfile.PlyListProperty)]
+    name = next((n for n in _FACE_NAMES if n in lists), lists[0] if lists else None)
+    if name is None:
         return None
     xyz = np.column_stack([np.asarray(vertex[c], dtype=np.float64) for c in ("x", "y", "z")])
-    return PlyData(xyz, [np.asarray(f, dtype=np.int64) for f in faces])
-
-
-def _header(raw: bytes) -> tuple[str, list[_Element], int]:
-    end = raw.find(b"end_header")
-    if not raw.startswith(b"ply") or end < 0:
-        raise ValueError("not a PLY header")
-    start = raw.index(b"\n", end) + 1
-    fmt = ""
-    elements: list[_Element] = []
-    for line in raw[:end].decode("ascii", errors="replace").splitlines():
-        words = line.split()
-        if not words:
-            continue
-        if words[0] == "format":
-            fmt = words[1]
-        elif words[0] == "element":
-            elements.append(_Element(words[1], int(words[2])))
-        elif words[0] == "property":
-            if words[1] == "list":
-                elements[-1].props.append((words[4], _TYPES[words[3]], _TYPES[words[2]]))
-            else:
-                elements[-1].props.append((words[2], _TYPES[words[1]], None))
-    if fmt not in ("ascii", "binary_little_endian", "binary_big_endian"):
-        raise ValueError(f"unknown PLY format {fmt!r}")
-    return fmt, elements, start
-
-
-def _ascii_elements(tokens: list[str], elements: list[_Element]) -> dict[str, dict[str, Any]]:
-    out: dict[str, dict[str, Any]] = {}
-    pos = 0
-    for el in elements:
-        if len(el.props) == 1 and el.props[0][2] is not None and el.count:  # one list: all of one length?
-            n = int(tokens[pos])
-            block = np.array(tokens[pos:pos + el.count * (n + 1)]).reshape(-1, n + 1) \
-                if len(tokens) >= pos + el.count * (n + 1) else None
-            if block is not None and np.all(block[:, 0].astype(np.int64) == n):
-                out[el.name] = {el.props[0][0]: list(block[:, 1:].astype(np.float64).astype(np.int64))}
-                pos += el.count * (n + 1)
-                continue
-        cols: dict[str, Any] = {name: [] for name, _, _ in el.props}
-        for _ in range(el.count):
-            for name, _, count_type in el.props:
-                if count_type is None:
-                    cols[name].append(float(tokens[pos]))
-                    pos += 1
-                else:
-                    n = int(tokens[pos])
-                    cols[name].append([int(float(t)) for t in tokens[pos + 1:pos + 1 + n]])
-                    pos += 1 + n
-        out[el.name] = cols
-    return out
-
-
-def _binary_elements(buf: bytes, elements: list[_Element], order: str) -> dict[str, dict[str, Any]]:
-    out: dict[str, dict[str, Any]] = {}
-    pos = 0
-    for el in elements:
-        if all(count_type is None for _, _, count_type in el.props):
-            dtype = np.dtype([(name, order + typ) for name, typ, _ in el.props])
-            arr = np.frombuffer(buf, dtype=dtype, count=el.count, offset=pos)
-            out[el.name] = {name: arr[name] for name, _, _ in el.props}
-            pos += dtype.itemsize * el.count
-            continue
-        if len(el.props) == 1 and el.count:  # one list: all of one length (the usual case)?
-            name, typ, count_type = el.props[0]
-            ct, it = np.dtype(order + count_type), np.dtype(order + typ)  # type: ignore[operator]
-            n = int(np.frombuffer(buf, dtype=ct, count=1, offset=pos)[0])
-            dtype = np.dtype([("n", ct), ("i", it, (n,))])
-            if len(buf) >= pos + dtype.itemsize * el.count:
-                arr = np.frombuffer(buf, dtype=dtype, count=el.count, offset=pos)
-                if np.all(arr["n"] == n):
-                    out[el.name] = {name: list(arr["i"].astype(np.int64))}
-                    pos += dtype.itemsize * el.count
-                    continue
-        cols: dict[str, Any] = {name: [] for name, _, _ in el.props}
-        for _ in range(el.count):  # lists of any length: one item after another
-            for name, typ, count_type in el.props:
-                if count_type is None:
-                    dt = np.dtype(order + typ)
-                    cols[name].append(np.frombuffer(buf, dtype=dt, count=1, offset=pos)[0])
-                    pos += dt.itemsize
-                else:
-                    ct, it = np.dtype(order + count_type), np.dtype(order + typ)
-                    n = int(np.frombuffer(buf, dtype=ct, count=1, offset=pos)[0])
-                    pos += ct.itemsize
-                    cols[name].append(np.frombuffer(buf, dtype=it, count=n, offset=pos).astype(np.int64))
-                    pos += it.itemsize * n
-        out[el.name] = cols
-    return out
+    return PlyData(xyz, [np.asarray(f, dtype=np.int64) for f in face[name]])
